@@ -1,0 +1,165 @@
+//! One diagnostic type for every stage, rendered with ariadne.
+
+use crate::source::{SourceMap, Span};
+use ariadne::{CharSet, Config, IndexType, Label as ALabel, Report, ReportKind};
+use std::fmt;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+pub enum Severity {
+    Warning,
+    Error,
+}
+
+/// A labelled span. The primary label is the one the report is anchored at.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Label {
+    pub span: Span,
+    pub message: String,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Diagnostic {
+    pub severity: Severity,
+    /// Stable code, e.g. `E0201`; `docs/language.md` lists them all.
+    pub code: &'static str,
+    pub message: String,
+    /// The first label is the primary one.
+    pub labels: Vec<Label>,
+    pub notes: Vec<String>,
+    pub help: Option<String>,
+}
+
+impl Diagnostic {
+    pub fn error(code: &'static str, message: impl Into<String>) -> Self {
+        Diagnostic {
+            severity: Severity::Error,
+            code,
+            message: message.into(),
+            labels: vec![],
+            notes: vec![],
+            help: None,
+        }
+    }
+
+    pub fn warning(code: &'static str, message: impl Into<String>) -> Self {
+        Diagnostic {
+            severity: Severity::Warning,
+            ..Self::error(code, message)
+        }
+    }
+
+    pub fn label(mut self, span: Span, message: impl Into<String>) -> Self {
+        self.labels.push(Label {
+            span,
+            message: message.into(),
+        });
+        self
+    }
+
+    pub fn note(mut self, note: impl Into<String>) -> Self {
+        self.notes.push(note.into());
+        self
+    }
+
+    pub fn help(mut self, help: impl Into<String>) -> Self {
+        self.help = Some(help.into());
+        self
+    }
+
+    /// A help line only when there is something to say.
+    pub fn maybe_help(self, help: Option<String>) -> Self {
+        match help {
+            Some(h) => self.help(h),
+            None => self,
+        }
+    }
+
+    pub fn is_error(&self) -> bool {
+        self.severity == Severity::Error
+    }
+
+    pub fn primary_span(&self) -> Option<Span> {
+        self.labels.first().map(|l| l.span)
+    }
+
+    /// Render with ariadne. `color` is off for pipes and tests.
+    pub fn render(&self, sources: &SourceMap, color: bool) -> String {
+        let name = |span: Span| sources.get(span.file).name.clone();
+        let kind = match self.severity {
+            Severity::Error => ReportKind::Error,
+            Severity::Warning => ReportKind::Warning,
+        };
+        let mut out = Vec::new();
+        match self.primary_span() {
+            Some(primary) => {
+                let config = Config::new()
+                    .with_color(color)
+                    .with_index_type(IndexType::Byte)
+                    .with_char_set(if color {
+                        CharSet::Unicode
+                    } else {
+                        CharSet::Ascii
+                    });
+                let mut report = Report::build(kind, (name(primary), primary.range()))
+                    .with_config(config)
+                    .with_code(self.code)
+                    .with_message(&self.message);
+                for (i, l) in self.labels.iter().enumerate() {
+                    let mut label =
+                        ALabel::new((name(l.span), l.span.range())).with_order(i as i32);
+                    if !l.message.is_empty() {
+                        label = label.with_message(&l.message);
+                    }
+                    if color {
+                        let c = if i == 0 {
+                            ariadne::Color::Red
+                        } else {
+                            ariadne::Color::Blue
+                        };
+                        label = label.with_color(c);
+                    }
+                    report.add_label(label);
+                }
+                for n in &self.notes {
+                    report.add_note(n);
+                }
+                if let Some(h) = &self.help {
+                    report.add_help(h);
+                }
+                let cache = ariadne::sources(
+                    sources
+                        .files()
+                        .map(|(_, f)| (f.name.clone(), f.text.clone())),
+                );
+                if report.finish().write(cache, &mut out).is_err() {
+                    return self.to_string();
+                }
+                String::from_utf8_lossy(&out).into_owned()
+            }
+            None => format!("{self}\n"),
+        }
+    }
+}
+
+/// The plain one-paragraph form, used where there is no source to show (missing files).
+impl fmt::Display for Diagnostic {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let kind = match self.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        };
+        write!(f, "[{}] {}: {}", self.code, kind, self.message)?;
+        for n in &self.notes {
+            write!(f, "\n  note: {n}")?;
+        }
+        if let Some(h) = &self.help {
+            write!(f, "\n  help: {h}")?;
+        }
+        Ok(())
+    }
+}
+
+/// Render a list of diagnostics, errors and warnings in source order.
+pub fn render_all(diags: &[Diagnostic], sources: &SourceMap, color: bool) -> String {
+    diags.iter().map(|d| d.render(sources, color)).collect()
+}

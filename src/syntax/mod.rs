@@ -1,0 +1,294 @@
+//! Source text to syntax tree: lexing, a delimiter and nesting pre-pass, then the chumsky parser.
+
+pub mod ast;
+pub mod parser;
+pub mod print;
+pub mod token;
+
+use crate::diagnostic::Diagnostic;
+use crate::source::{FileId, Span};
+use ast::Ast;
+use chumsky::error::{RichPattern, RichReason};
+use chumsky::{input::Input as _, prelude::*};
+use token::{LexError, Token};
+
+/// Deepest allowed nesting of brackets, prefix operators and expressions. Far beyond what a
+/// scene needs, and low enough that every recursive pass stays well inside the stack.
+pub const MAX_NESTING: usize = 256;
+
+/// Parse one file. Always returns a tree (possibly partial) and the diagnostics found.
+pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
+    let mut diags = Vec::new();
+    let mut tokens = Vec::new();
+    for (tok, range) in token::lex(src) {
+        let span = Span::new(file, range.start, range.end);
+        match tok {
+            Token::Error(e) => diags.push(lex_error(e, span, &src[range])),
+            tok => tokens.push((tok, SimpleSpan::from(range))),
+        }
+    }
+    let structural = check_structure(file, &tokens);
+    if !structural.is_empty() {
+        // Unbalanced or absurdly deep input: the parser would only echo these.
+        diags.extend(structural);
+        return (Ast::default(), diags);
+    }
+
+    let eoi = SimpleSpan::from(src.len()..src.len());
+    let input = tokens.as_slice().map(eoi, |(t, s)| (t, s));
+    let mut state = chumsky::extra::SimpleState(parser::Builder {
+        ast: Ast::default(),
+        file,
+    });
+    let (items, errors) = parser::file()
+        .parse_with_state(input, &mut state)
+        .into_output_errors();
+    let mut ast = state.0.ast;
+    ast.items = items.unwrap_or_default();
+    diags.extend(errors.into_iter().map(|e| parse_error(file, src, e)));
+
+    if diags.is_empty()
+        && let Some((id, depth)) = ast.deepest()
+        && depth > MAX_NESTING
+    {
+        diags.push(too_deep(ast.span(id), "this expression"));
+        ast = Ast::default();
+    }
+    (ast, diags)
+}
+
+fn lex_error(e: LexError, span: Span, text: &str) -> Diagnostic {
+    match e {
+        LexError::BadChar => {
+            let c = text.chars().next().unwrap_or('?');
+            let d = Diagnostic::error(
+                "E0001",
+                format!("unexpected character `{}`", c.escape_default()),
+            )
+            .label(span, "this character is not part of the language");
+            let hint = match c {
+                '%' => Some("the remainder operator is written `mod`, as in `i mod 7`".to_string()),
+                '^' => Some("powers are written `pow(x, y)`".to_string()),
+                '&' | '|' => Some("logical operators are `&&` and `||`".to_string()),
+                '#' => {
+                    Some("colours are written `#rrggbb` with exactly six hex digits".to_string())
+                }
+                '\'' => Some("strings use double quotes: \"like this\"".to_string()),
+                _ => None,
+            };
+            d.maybe_help(hint)
+        }
+        LexError::UnterminatedString => Diagnostic::error("E0002", "unterminated string")
+            .label(span, "this string has no closing `\"`")
+            .help("strings end on the same line with `\"`"),
+        LexError::UnterminatedComment => Diagnostic::error("E0003", "unterminated block comment")
+            .label(
+                Span {
+                    end: span.start + 2,
+                    ..span
+                },
+                "this comment is never closed",
+            )
+            .help("close it with `*/`"),
+    }
+}
+
+fn too_deep(span: Span, what: &str) -> Diagnostic {
+    Diagnostic::error("E0012", "nested too deeply")
+        .label(
+            span,
+            format!("{what} goes more than {MAX_NESTING} levels deep"),
+        )
+        .note(format!(
+            "the parser accepts at most {MAX_NESTING} levels of nesting"
+        ))
+        .help("split the expression into `let` bindings or use a `for` comprehension")
+}
+
+/// Brackets must balance and nest at most `MAX_NESTING` deep; runs of prefix operators too.
+fn check_structure(file: FileId, tokens: &[(Token, SimpleSpan)]) -> Vec<Diagnostic> {
+    let sp = |s: &SimpleSpan| Span::new(file, s.start, s.end);
+    let mut stack: Vec<(Token, SimpleSpan)> = Vec::new();
+    let mut diags = Vec::new();
+    let mut prefix_run = 0usize;
+    for (tok, span) in tokens {
+        if matches!(tok, Token::Minus | Token::Bang) {
+            prefix_run += 1;
+            if prefix_run > MAX_NESTING {
+                return vec![too_deep(sp(span), "this run of prefix operators")];
+            }
+        } else {
+            prefix_run = 0;
+        }
+        match tok {
+            Token::LParen | Token::LBracket | Token::LBrace => {
+                stack.push((*tok, *span));
+                if stack.len() > MAX_NESTING {
+                    return vec![too_deep(sp(span), "this bracket")];
+                }
+            }
+            Token::RParen | Token::RBracket | Token::RBrace => {
+                let want = |open: &Token| match open {
+                    Token::LParen => Token::RParen,
+                    Token::LBracket => Token::RBracket,
+                    _ => Token::RBrace,
+                };
+                match stack.pop() {
+                    Some((open, _)) if want(&open) == *tok => {}
+                    Some((open, ospan)) => {
+                        diags.push(
+                            Diagnostic::error(
+                                "E0011",
+                                format!("mismatched closing delimiter {tok}"),
+                            )
+                            .label(sp(span), format!("expected {} here", want(&open)))
+                            .label(sp(&ospan), format!("this {open} is closed by {tok}")),
+                        );
+                        return diags;
+                    }
+                    None => {
+                        diags.push(
+                            Diagnostic::error(
+                                "E0011",
+                                format!("unexpected closing delimiter {tok}"),
+                            )
+                            .label(sp(span), "there is nothing here for it to close")
+                            .help("remove it, or add the opening delimiter it belongs to"),
+                        );
+                        return diags;
+                    }
+                }
+            }
+            _ => {}
+        }
+    }
+    if let Some((open, ospan)) = stack.pop() {
+        let closer = match open {
+            Token::LParen => ")",
+            Token::LBracket => "]",
+            _ => "}",
+        };
+        diags.push(
+            Diagnostic::error("E0011", format!("unclosed delimiter {open}"))
+                .label(sp(&ospan), format!("this {open} is never closed"))
+                .help(format!("add `{closer}` where the group should end")),
+        );
+    }
+    diags
+}
+
+fn parse_error(file: FileId, src: &str, e: Rich<Token>) -> Diagnostic {
+    let span = Span::new(file, e.span().start, e.span().end);
+    let found = e.found().map(|t| t.to_string());
+    let mut expected: Vec<String> = match e.reason() {
+        RichReason::ExpectedFound { expected, .. } => expected
+            .iter()
+            .filter(|p| !matches!(p, RichPattern::SomethingElse))
+            .map(|p| match p {
+                RichPattern::EndOfInput => "end of file".to_string(),
+                RichPattern::Token(t) => t.to_string(),
+                RichPattern::Label(l) => l.to_string(),
+                RichPattern::Identifier(i) => format!("`{i}`"),
+                RichPattern::Any => "any token".to_string(),
+                other => other.to_string(),
+            })
+            .collect(),
+        RichReason::Custom(msg) => vec![msg.to_string()],
+    };
+    expected.sort();
+    expected.dedup();
+    // After a complete operand any operator could follow; listing them all buries the point.
+    const OPERATORS: [&str; 19] = [
+        "`!=`",
+        "`&&`",
+        "`*`",
+        "`+`",
+        "`-`",
+        "`..`",
+        "`.`",
+        "`/`",
+        "`<=`",
+        "`<`",
+        "`==`",
+        "`>=`",
+        "`>`",
+        "`[`",
+        "`mod`",
+        "`x`",
+        "`|>`",
+        "`||`",
+        "arguments",
+    ];
+    if expected.iter().any(|e| e == "`+`") {
+        expected.retain(|e| !OPERATORS.contains(&e.as_str()));
+        expected.push("an operator".to_string());
+    }
+    let found_text = found.clone().unwrap_or_else(|| "end of file".to_string());
+    let mut d = Diagnostic::error("E0010", format!("unexpected {found_text}"))
+        .label(span, format!("expected {}", one_of_list(&expected)));
+    for (label, cspan) in e.contexts() {
+        let cspan = Span::new(file, cspan.start, cspan.end);
+        if cspan != span {
+            d = d.label(cspan, format!("while parsing {label}"));
+        }
+    }
+    let text = src.get(e.span().start..e.span().end).unwrap_or("");
+    d.maybe_help(parse_hint(e.found(), text, &expected))
+}
+
+/// "a", "a or b", "one of a, b or c".
+fn one_of_list(items: &[String]) -> String {
+    match items {
+        [] => "something else".to_string(),
+        [one] => one.clone(),
+        [init @ .., last] if init.len() == 1 => format!("{} or {last}", init[0]),
+        [init @ .., last] => format!("one of {} or {last}", init.join(", ")),
+    }
+}
+
+fn parse_hint(found: Option<&Token>, text: &str, expected: &[String]) -> Option<String> {
+    let wants = |s: &str| expected.iter().any(|e| e.contains(s));
+    match found {
+        Some(Token::Ident(s))
+            if s.starts_with('x')
+                && s[1..].chars().all(|c| c.is_ascii_digit())
+                && !s[1..].is_empty() =>
+        {
+            Some(format!(
+                "an image size is written with spaces around `x`: `... x {}`",
+                &s[1..]
+            ))
+        }
+        Some(Token::Eq) if wants("`:`") || wants("`)`") => Some(
+            "named arguments are written `name: value`, as in `hypersphere(radius: 1)`".to_string(),
+        ),
+        Some(Token::Colon) if wants("`=`") => {
+            Some("settings and bindings use `=`, as in `spp = 16`".to_string())
+        }
+        Some(Token::EqEq) if wants("`=`") => Some("bindings use a single `=`".to_string()),
+        Some(
+            Token::Let
+            | Token::Fn
+            | Token::Object
+            | Token::Render
+            | Token::Camera
+            | Token::Sky
+            | Token::Medium
+            | Token::Import
+            | Token::If
+            | Token::Else
+            | Token::For
+            | Token::In
+            | Token::Sdf
+            | Token::Mod,
+        ) if wants("a name") => Some(format!("`{text}` is a keyword and can't be used as a name")),
+        Some(Token::Else) => {
+            Some("`else` must follow the closing `}` of an `if` block".to_string())
+        }
+        Some(Token::LBrace) if wants("`else`") => None,
+        _ if wants("`else`") => {
+            Some("every `if` needs an `else`: both branches give the value".to_string())
+        }
+        _ => None,
+    }
+}
