@@ -2,6 +2,50 @@
 //!
 //! The pipeline runs one way: source -> tokens -> AST -> typed scene (see `docs/`).
 
+pub mod check;
 pub mod diagnostic;
 pub mod source;
 pub mod syntax;
+
+use diagnostic::Diagnostic;
+use source::SourceMap;
+use std::path::Path;
+
+/// Everything one compilation produced: the loaded sources, the diagnostics of every stage,
+/// the root file's syntax tree and, when there were no errors, the typed scene.
+pub struct Compilation {
+    pub sources: SourceMap,
+    pub diagnostics: Vec<Diagnostic>,
+    pub ast: syntax::ast::Ast,
+    pub scene: Option<check::Scene>,
+}
+
+impl Compilation {
+    /// Compile a file from disk; imports resolve relative to it.
+    pub fn from_path(path: &Path) -> Compilation {
+        check::compile_path(path)
+    }
+
+    /// Compile text held in memory; imports resolve relative to the current directory.
+    pub fn from_source(name: &str, text: &str) -> Compilation {
+        check::compile_source(name, text)
+    }
+
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.iter().any(Diagnostic::is_error)
+    }
+
+    pub fn render_diagnostics(&self, color: bool) -> String {
+        diagnostic::render_all(&self.diagnostics, &self.sources, color)
+    }
+
+    /// `--emit ast`
+    pub fn emit_ast(&self) -> String {
+        syntax::print::print_ast(&self.ast)
+    }
+
+    /// `--emit scene`: the typed, constant-evaluated scene, if it compiled.
+    pub fn emit_scene(&self) -> Option<String> {
+        self.scene.as_ref().map(|s| s.to_string())
+    }
+}

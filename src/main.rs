@@ -1,10 +1,115 @@
-use hyperslice::{diagnostic, source::SourceMap, syntax};
-fn main() {
-    let path = std::env::args().nth(1).unwrap();
-    let text = std::fs::read_to_string(&path).unwrap();
-    let mut sm = SourceMap::new();
-    let id = sm.add(path.clone(), None, text.clone());
-    let (ast, diags) = syntax::parse(id, &text);
-    print!("{}", syntax::print::print_ast(&ast));
-    print!("{}", diagnostic::render_all(&diags, &sm, false));
+//! The `hyperslice` command line.
+
+use clap::{Parser, Subcommand, ValueEnum};
+use hyperslice::Compilation;
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+#[derive(Parser)]
+#[command(
+    name = "hyperslice",
+    version,
+    about = "Render four-dimensional scenes written in the .4ds language"
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+    /// Colour in diagnostics: auto (when stderr is a terminal), always or never.
+    #[arg(long, global = true, default_value = "auto")]
+    color: ColorChoice,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ColorChoice {
+    Auto,
+    Always,
+    Never,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Parse and type-check scenes; print diagnostics. Exit 1 if any has an error.
+    Check {
+        #[arg(required = true)]
+        files: Vec<PathBuf>,
+    },
+    /// Compile a scene and print one stage of it.
+    Compile {
+        file: PathBuf,
+        /// The stage to print.
+        #[arg(long, default_value = "scene")]
+        emit: Emit,
+    },
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Emit {
+    /// The syntax tree.
+    Ast,
+    /// The typed, constant-evaluated scene.
+    Scene,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let color = match cli.color {
+        ColorChoice::Auto => {
+            std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
+        }
+        ColorChoice::Always => true,
+        ColorChoice::Never => false,
+    };
+    match cli.command {
+        Command::Check { files } => {
+            let mut failed = false;
+            for file in &files {
+                let c = Compilation::from_path(file);
+                eprint!("{}", c.render_diagnostics(color));
+                if c.has_errors() {
+                    failed = true;
+                } else if let Some(scene) = &c.scene {
+                    let warnings = c.diagnostics.len();
+                    eprintln!(
+                        "{}: ok ({} object{}, {} frame{}{})",
+                        file.display(),
+                        scene.objects.len(),
+                        if scene.objects.len() == 1 { "" } else { "s" },
+                        scene.render.frames,
+                        if scene.render.frames == 1 { "" } else { "s" },
+                        if warnings > 0 {
+                            format!(
+                                ", {warnings} warning{}",
+                                if warnings == 1 { "" } else { "s" }
+                            )
+                        } else {
+                            String::new()
+                        }
+                    );
+                }
+            }
+            if failed {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+        Command::Compile { file, emit } => {
+            let c = Compilation::from_path(&file);
+            eprint!("{}", c.render_diagnostics(color));
+            match emit {
+                Emit::Ast => print!("{}", c.emit_ast()),
+                Emit::Scene => {
+                    if let Some(s) = c.emit_scene() {
+                        print!("{s}");
+                    }
+                }
+            }
+            if c.has_errors() {
+                ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
+            }
+        }
+    }
 }

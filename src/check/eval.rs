@@ -1,0 +1,963 @@
+//! The constant evaluator and type checker: walks the syntax tree, computes every value that
+//! does not depend on `p`, `n` or `t`, builds field expressions for those that do, and reports
+//! type and value errors at their spans. An erroneous expression evaluates to `Value::Error`,
+//! which silences follow-on errors, so one run reports every independent mistake.
+
+use super::builtins;
+use super::ops;
+use super::suggest::did_you_mean;
+use super::types::Type;
+use super::value::*;
+use crate::diagnostic::Diagnostic;
+use crate::source::{FileId, Span};
+use crate::syntax::ast::*;
+use std::cell::Cell;
+use std::collections::HashMap;
+use std::rc::Rc;
+
+/// Deepest chain of function calls.
+pub const MAX_CALL_DEPTH: usize = 64;
+/// Most items a list, range or `for` may produce.
+pub const MAX_LIST: usize = 100_000;
+/// Most evaluation steps and field nodes one compilation may take.
+pub const MAX_WORK: usize = 1_000_000;
+/// Deepest shape tree.
+pub const MAX_SHAPE_DEPTH: u32 = 1000;
+
+/// A local binding; scopes form a persistent linked list so closures capture cheaply.
+#[derive(Debug)]
+pub struct Scope {
+    name: String,
+    value: Value,
+    span: Span,
+    used: Cell<bool>,
+    parent: Env,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Env(Option<Rc<Scope>>);
+
+impl Env {
+    pub fn bind(&self, name: &str, value: Value, span: Span) -> (Env, Rc<Scope>) {
+        let scope = Rc::new(Scope {
+            name: name.to_string(),
+            value,
+            span,
+            used: Cell::new(false),
+            parent: self.clone(),
+        });
+        (Env(Some(scope.clone())), scope)
+    }
+
+    fn lookup(&self, name: &str) -> Option<&Scope> {
+        let mut cur = self.0.as_deref();
+        while let Some(s) = cur {
+            if s.name == name {
+                return Some(s);
+            }
+            cur = s.parent.0.as_deref();
+        }
+        None
+    }
+
+    fn names(&self) -> Vec<&str> {
+        let mut out = vec![];
+        let mut cur = self.0.as_deref();
+        while let Some(s) = cur {
+            out.push(s.name.as_str());
+            cur = s.parent.0.as_deref();
+        }
+        out
+    }
+}
+
+pub enum GlobalKind {
+    Let(LetStmt),
+    Fn(Rc<FnDef>),
+}
+
+enum GlobalState {
+    Pending,
+    InProgress,
+    Done(Value),
+}
+
+pub struct Global {
+    pub name: Ident,
+    pub file: FileId,
+    pub kind: GlobalKind,
+    state: GlobalState,
+    pub used: bool,
+}
+
+/// An evaluated argument.
+#[derive(Clone, Debug)]
+pub struct ArgVal {
+    pub name: Option<Ident>,
+    pub value: Value,
+    pub span: Span,
+}
+
+pub struct Checker<'a> {
+    asts: &'a [Ast],
+    pub diags: Vec<Diagnostic>,
+    pub fields: Fields,
+    pub globals: Vec<Global>,
+    file_globals: Vec<HashMap<String, usize>>,
+    file_imports: Vec<Vec<FileId>>,
+    call_depth: usize,
+    work: usize,
+    aborted: bool,
+}
+
+impl<'a> Checker<'a> {
+    pub fn new(asts: &'a [Ast], imports: Vec<Vec<FileId>>) -> Self {
+        let mut ck = Checker {
+            asts,
+            diags: vec![],
+            fields: Fields::default(),
+            globals: vec![],
+            file_globals: vec![HashMap::new(); asts.len()],
+            file_imports: imports,
+            call_depth: 0,
+            work: 0,
+            aborted: false,
+        };
+        for (f, ast) in asts.iter().enumerate() {
+            for item in &ast.items {
+                let (name, kind) = match &item.kind {
+                    ItemKind::Let(l) => (l.name.clone(), GlobalKind::Let(l.clone())),
+                    ItemKind::Fn(d) => (d.name.clone(), GlobalKind::Fn(Rc::new(d.clone()))),
+                    _ => continue,
+                };
+                let id = ck.globals.len();
+                if let Some(&prev) = ck.file_globals[f].get(&name.name) {
+                    let first = ck.globals[prev].name.span;
+                    ck.diags.push(duplicate(&name, first));
+                    continue;
+                }
+                ck.file_globals[f].insert(name.name.clone(), id);
+                ck.globals.push(Global {
+                    name,
+                    file: FileId(f as u32),
+                    kind,
+                    state: GlobalState::Pending,
+                    used: false,
+                });
+            }
+        }
+        ck
+    }
+
+    pub fn ast(&self, file: FileId) -> &'a Ast {
+        &self.asts[file.0 as usize]
+    }
+
+    pub fn span(&self, file: FileId, id: ExprId) -> Span {
+        self.ast(file).span(id)
+    }
+
+    pub fn error(&mut self, d: Diagnostic) -> Value {
+        if !self.aborted {
+            self.diags.push(d);
+        }
+        Value::Error
+    }
+
+    /// Count one unit of compile-time work; past the limit, stop evaluating.
+    pub fn tick(&mut self, span: Span) -> bool {
+        self.work += 1;
+        if self.work > MAX_WORK && !self.aborted {
+            self.diags.push(
+                Diagnostic::error("E0402", "the scene takes too much work to evaluate")
+                    .label(span, format!("evaluation passed {MAX_WORK} steps here"))
+                    .note("loops, recursion and large lists are expanded at compile time")
+                    .help("use `tile` to repeat a shape instead of listing copies"),
+            );
+            self.aborted = true;
+        }
+        !self.aborted
+    }
+
+    pub fn field(&mut self, op: FieldOp, ty: Type) -> Value {
+        self.work += 1;
+        Value::Field(self.fields.push(op, ty.clone()), ty)
+    }
+
+    /// Lift a constant or field into a field node.
+    pub fn lift(&mut self, v: &Value) -> FieldId {
+        match v {
+            Value::Field(id, _) => *id,
+            other => self.fields.push(FieldOp::Const(other.clone()), other.ty()),
+        }
+    }
+
+    pub fn deps(&self, v: &Value) -> u8 {
+        self.fields.deps(v)
+    }
+
+    /// Report when a value that must be known at compile time depends on p, n or t.
+    pub fn require_const(&mut self, v: &Value, span: Span, what: &str) -> bool {
+        let deps = self.deps(v);
+        if deps == 0 {
+            return true;
+        }
+        self.error(
+            Diagnostic::error("E0208", format!("{what} must be known before rendering"))
+                .label(span, format!("this depends on {}", describe_deps(deps)))
+                .note("values of `p` and `n` are known only per point, and `t` only per frame")
+                .help(format!(
+                    "give {what} a value that does not use {}",
+                    describe_deps(deps)
+                )),
+        );
+        false
+    }
+
+    /// Report a type mismatch unless `v` has type `want`; lists of four numbers already became vec4.
+    pub fn expect(&mut self, v: &Value, want: &Type, span: Span, what: &str) -> bool {
+        if v.is_error() {
+            return false;
+        }
+        let found = v.ty();
+        if want.accepts(&found) {
+            return true;
+        }
+        let mut d = Diagnostic::error(
+            "E0201",
+            format!("mismatched types: {what} must be {}", article(want)),
+        )
+        .label(span, format!("expected {want}, found {found}"));
+        d = match (want, &found) {
+            (Type::Angle, Type::Num) => Diagnostic { code: "E0210", ..d }
+                .help("give the number a unit, as in `30deg`, `0.5rad` or `0.25turn`, or multiply by `1deg`"),
+            (Type::Num, Type::Angle) => {
+                Diagnostic { code: "E0210", ..d }.help("divide by a unit to get a number, as in `a / 1deg`")
+            }
+            (Type::Color, Type::Vec4) => d.help("colours are written `rgb(r, g, b)` or `#rrggbb`"),
+            (Type::Vec4, Type::List(_)) => d.help("a vec4 is a list of exactly four numbers, as in `[0, 1, 0, 0]`"),
+            (Type::Shape, Type::Material) | (Type::Material, Type::Shape) => {
+                d.help("an object has `shape = ...` and `material = ...` settings")
+            }
+            (Type::Material, Type::Function) => d.help("a material map takes the point and normal: `|p, n| diffuse(...)`"),
+            _ => d,
+        };
+        self.error(d);
+        false
+    }
+
+    /// Evaluate an expression; never fails, errors become diagnostics and `Value::Error`.
+    pub fn eval(&mut self, file: FileId, env: &Env, id: ExprId) -> Value {
+        stacker::maybe_grow(64 * 1024, 2 * 1024 * 1024, || {
+            self.eval_inner(file, env, id)
+        })
+    }
+
+    fn eval_inner(&mut self, file: FileId, env: &Env, id: ExprId) -> Value {
+        let span = self.span(file, id);
+        if !self.tick(span) {
+            return Value::Error;
+        }
+        match self.ast(file).expr(id) {
+            Expr::Error => Value::Error,
+            Expr::Number { value, unit } => {
+                if !value.is_finite() {
+                    return self.error(
+                        Diagnostic::error("E0301", "number too large")
+                            .label(span, "this is beyond the range of a number"),
+                    );
+                }
+                match unit {
+                    Some(u) => Value::Angle(value * u.radians()),
+                    None => Value::Num(*value),
+                }
+            }
+            Expr::Bool(b) => Value::Bool(*b),
+            Expr::Str(s) => Value::Str(s.as_str().into()),
+            Expr::Hex(rgb) => Value::Color(rgb.map(|c| srgb_to_linear(c as f64 / 255.0))),
+            Expr::Name(name) => self.lookup(file, env, name),
+            Expr::List(xs) => self.list(file, env, xs, span),
+            Expr::Unary(op, a) => {
+                let v = self.eval(file, env, *a);
+                ops::unary(self, *op, v, span)
+            }
+            Expr::Binary(op, a, b) => self.binary(file, env, *op, *a, *b, span),
+            Expr::Pipe(lhs, rhs) => {
+                let first = self.eval(file, env, *lhs);
+                let first = ArgVal {
+                    name: None,
+                    value: first,
+                    span: self.span(file, *lhs),
+                };
+                match self.ast(file).expr(*rhs) {
+                    Expr::Call { callee, args } => {
+                        let f = self.eval(file, env, *callee);
+                        let mut argv = vec![first];
+                        argv.extend(self.eval_args(file, env, args));
+                        self.call(&f, argv, span, self.span(file, *callee))
+                    }
+                    _ => {
+                        let f = self.eval(file, env, *rhs);
+                        self.call(&f, vec![first], span, self.span(file, *rhs))
+                    }
+                }
+            }
+            Expr::Call { callee, args } => {
+                let f = self.eval(file, env, *callee);
+                let argv = self.eval_args(file, env, args);
+                self.call(&f, argv, span, self.span(file, *callee))
+            }
+            Expr::Field(a, field) => {
+                let v = self.eval(file, env, *a);
+                ops::component(self, v, field, self.span(file, *a))
+            }
+            Expr::Index(a, i) => {
+                let list = self.eval(file, env, *a);
+                let index = self.eval(file, env, *i);
+                ops::index(self, list, index, self.span(file, *a), self.span(file, *i))
+            }
+            Expr::If {
+                cond,
+                then,
+                otherwise,
+            } => self.if_expr(file, env, *cond, *then, *otherwise),
+            Expr::For { var, iter, body } => self.for_expr(file, env, var, *iter, *body, span),
+            Expr::Lambda { params, body } => Value::Function(Rc::new(Function::Lambda {
+                file,
+                params: params.clone(),
+                body: *body,
+                env: env.clone(),
+                span,
+            })),
+            Expr::Sdf { param, body } => {
+                let p = self.field(FieldOp::Input(Input::P), Type::Vec4);
+                let (inner, _) = env.bind(&param.name, p, param.span);
+                let d = self.eval(file, &inner, *body);
+                let body_span = self.span(file, *body);
+                if !self.expect(&d, &Type::Num, body_span, "a distance function's result") {
+                    return Value::Error;
+                }
+                let d = Value::Field(self.lift(&d), Type::Num);
+                builtins::make_shape(self, ShapeKind::Custom, vec![("distance", d)], vec![], span)
+            }
+            Expr::Block { lets, result } => {
+                let mut env = env.clone();
+                let mut scopes = vec![];
+                for l in lets {
+                    let v = self.eval(file, &env, l.value);
+                    let v = self.annotate(file, l, v);
+                    let (e, s) = env.bind(&l.name.name, v, l.name.span);
+                    env = e;
+                    scopes.push(s);
+                }
+                let out = self.eval(file, &env, *result);
+                for s in scopes {
+                    self.warn_unused_scope(&s, "binding");
+                }
+                out
+            }
+        }
+    }
+
+    pub fn warn_unused_scope(&mut self, s: &Scope, what: &str) {
+        if !s.used.get() && !s.name.starts_with('_') && !self.aborted {
+            self.diags.push(unused(&s.name, s.span, what));
+        }
+    }
+
+    /// Check a `let`'s annotation, if any.
+    fn annotate(&mut self, file: FileId, l: &LetStmt, v: Value) -> Value {
+        let Some(ty) = &l.ty else { return v };
+        let Some(want) = self.resolve_type(ty) else {
+            return Value::Error;
+        };
+        let span = self.span(file, l.value);
+        if self.expect(&v, &want, span, &format!("`{}`", l.name.name)) {
+            v
+        } else {
+            Value::Error
+        }
+    }
+
+    pub fn resolve_type(&mut self, ty: &TypeExpr) -> Option<Type> {
+        match &ty.kind {
+            TypeKind::List(inner) => self.resolve_type(inner).map(|t| Type::List(Box::new(t))),
+            TypeKind::Named(n) => match Type::from_name(n) {
+                Some(t) => Some(t),
+                None => {
+                    let hint = did_you_mean(n, Type::NAMES);
+                    self.error(
+                        Diagnostic::error("E0101", format!("unknown type `{n}`"))
+                            .label(ty.span, "not a type")
+                            .note(format!("the types are {}", Type::NAMES.join(", ")))
+                            .maybe_help(hint),
+                    );
+                    None
+                }
+            },
+        }
+    }
+
+    fn lookup(&mut self, file: FileId, env: &Env, name: &Ident) -> Value {
+        if let Some(s) = env.lookup(&name.name) {
+            s.used.set(true);
+            return s.value.clone();
+        }
+        if let Some(g) = self.find_global(file, &name.name) {
+            return self.global_value(g, name.span);
+        }
+        if let Some(v) = builtins::constant(self, &name.name) {
+            return v;
+        }
+        if builtins::is_function(&name.name) {
+            return Value::Function(Rc::new(Function::Builtin(builtins::intern(&name.name))));
+        }
+        let mut candidates: Vec<&str> = env.names();
+        let globals: Vec<String> = self.visible_globals(file);
+        candidates.extend(globals.iter().map(String::as_str));
+        candidates.extend(builtins::NAMES.iter().copied());
+        let hint = did_you_mean(&name.name, candidates.iter().copied());
+        let hint = hint.or_else(|| match name.name.as_str() {
+            "p" | "n" => Some(format!(
+                "`{}` exists inside material maps `|p, n| ...` and `sdf |p| ...`",
+                name.name
+            )),
+            "true_" | "True" | "False" => Some("booleans are `true` and `false`".to_string()),
+            _ => None,
+        });
+        self.error(
+            Diagnostic::error("E0101", format!("unknown name `{}`", name.name))
+                .label(name.span, "not found in this scope")
+                .maybe_help(hint),
+        )
+    }
+
+    fn find_global(&self, file: FileId, name: &str) -> Option<usize> {
+        if let Some(&g) = self.file_globals[file.0 as usize].get(name) {
+            return Some(g);
+        }
+        self.file_imports[file.0 as usize]
+            .iter()
+            .find_map(|f| self.file_globals[f.0 as usize].get(name).copied())
+    }
+
+    fn visible_globals(&self, file: FileId) -> Vec<String> {
+        std::iter::once(&file)
+            .chain(self.file_imports[file.0 as usize].iter())
+            .flat_map(|f| self.file_globals[f.0 as usize].keys().cloned())
+            .collect()
+    }
+
+    fn global_value(&mut self, g: usize, use_span: Span) -> Value {
+        self.globals[g].used = true;
+        match &self.globals[g].state {
+            GlobalState::Done(v) => return v.clone(),
+            GlobalState::InProgress => {
+                let name = self.globals[g].name.clone();
+                return self.error(
+                    Diagnostic::error(
+                        "E0403",
+                        format!("`{}` is defined in terms of itself", name.name),
+                    )
+                    .label(use_span, "this use needs the value being defined")
+                    .label(name.span, format!("`{}` is defined here", name.name))
+                    .help("a `let` cannot refer to itself; use a `fn` for recursion"),
+                );
+            }
+            GlobalState::Pending => {}
+        }
+        let file = self.globals[g].file;
+        let v = match &self.globals[g].kind {
+            GlobalKind::Fn(def) => Value::Function(Rc::new(Function::User {
+                global: g,
+                file,
+                def: def.clone(),
+            })),
+            GlobalKind::Let(l) => {
+                let l = l.clone();
+                self.globals[g].state = GlobalState::InProgress;
+                let v = self.eval(file, &Env::default(), l.value);
+                self.annotate(file, &l, v)
+            }
+        };
+        self.globals[g].state = GlobalState::Done(v.clone());
+        v
+    }
+
+    /// Evaluate every global (so errors in unused definitions are still reported) and warn
+    /// about unused ones in the root file.
+    pub fn finish_globals(&mut self, root: FileId) {
+        for g in 0..self.globals.len() {
+            if self.globals[g].file != root {
+                continue;
+            }
+            let used = self.globals[g].used;
+            let name = self.globals[g].name.clone();
+            match &self.globals[g].kind {
+                GlobalKind::Let(_) => {
+                    self.global_value(g, name.span);
+                }
+                GlobalKind::Fn(def) => {
+                    let def = def.clone();
+                    self.check_fn_signature(self.globals[g].file, &def);
+                }
+            }
+            if !used && !name.name.starts_with('_') && !self.aborted {
+                let what = if matches!(self.globals[g].kind, GlobalKind::Fn(_)) {
+                    "function"
+                } else {
+                    "binding"
+                };
+                self.diags.push(unused(&name.name, name.span, what));
+            }
+        }
+    }
+
+    fn check_fn_signature(&mut self, file: FileId, def: &FnDef) {
+        let mut seen: HashMap<&str, Span> = HashMap::new();
+        for p in &def.params {
+            if let Some(first) = seen.insert(&p.name.name, p.name.span) {
+                self.error(duplicate(&p.name, first));
+            }
+            let ty = self.resolve_type(&p.ty);
+            if let (Some(ty), Some(d)) = (ty, p.default) {
+                let v = self.eval(file, &Env::default(), d);
+                let span = self.span(file, d);
+                self.expect(&v, &ty, span, &format!("the default of `{}`", p.name.name));
+            }
+        }
+        if let Some(r) = &def.ret {
+            self.resolve_type(r);
+        }
+    }
+
+    fn eval_args(&mut self, file: FileId, env: &Env, args: &[Arg]) -> Vec<ArgVal> {
+        args.iter()
+            .map(|a| ArgVal {
+                name: a.name.clone(),
+                value: self.eval(file, env, a.value),
+                span: self.span(file, a.value),
+            })
+            .collect()
+    }
+
+    /// Match arguments to parameter names: positional first, then named. Reports too many,
+    /// unknown and repeated arguments; missing ones are `None` for the caller to default.
+    pub fn bind(
+        &mut self,
+        fname: &str,
+        params: &[&str],
+        args: Vec<ArgVal>,
+        call: Span,
+    ) -> Option<Vec<Option<ArgVal>>> {
+        let mut slots: Vec<Option<ArgVal>> = vec![None; params.len()];
+        let mut ok = true;
+        let mut next = 0;
+        let mut seen_named = false;
+        for a in args {
+            match &a.name {
+                None if seen_named => {
+                    self.error(
+                        Diagnostic::error("E0202", "positional argument after a named one")
+                            .label(a.span, "this argument has no name")
+                            .help("put positional arguments first, or name this one"),
+                    );
+                    ok = false;
+                }
+                None if next < params.len() => {
+                    slots[next] = Some(a);
+                    next += 1;
+                }
+                None => {
+                    self.error(
+                        Diagnostic::error("E0202", format!("too many arguments to `{fname}`"))
+                            .label(a.span, "this argument is extra")
+                            .label(
+                                call,
+                                format!(
+                                    "`{fname}` takes {} argument{}",
+                                    params.len(),
+                                    plural(params.len())
+                                ),
+                            )
+                            .note(format!("`{fname}` takes {}", param_list(params))),
+                    );
+                    ok = false;
+                }
+                Some(n) => {
+                    seen_named = true;
+                    match params.iter().position(|p| *p == n.name) {
+                        Some(i) if slots[i].is_some() => {
+                            let first = slots[i].as_ref().map(|s| s.span).unwrap_or(call);
+                            self.error(
+                                Diagnostic::error(
+                                    "E0205",
+                                    format!("argument `{}` given twice", n.name),
+                                )
+                                .label(n.span, "given again here")
+                                .label(first, "first given here"),
+                            );
+                            ok = false;
+                        }
+                        Some(i) => slots[i] = Some(a),
+                        None => {
+                            let hint = did_you_mean(&n.name, params.iter().copied());
+                            self.error(
+                                Diagnostic::error(
+                                    "E0203",
+                                    format!("`{fname}` has no parameter `{}`", n.name),
+                                )
+                                .label(n.span, "unknown argument name")
+                                .note(format!("`{fname}` takes {}", param_list(params)))
+                                .maybe_help(hint),
+                            );
+                            ok = false;
+                        }
+                    }
+                }
+            }
+        }
+        ok.then_some(slots)
+    }
+
+    pub fn missing(&mut self, fname: &str, param: &str, call: Span) -> Value {
+        self.error(
+            Diagnostic::error("E0204", format!("missing argument `{param}` to `{fname}`"))
+                .label(call, format!("`{param}` is required"))
+                .help(format!("pass it by position or as `{param}: ...`")),
+        )
+    }
+
+    pub fn call(&mut self, f: &Value, args: Vec<ArgVal>, span: Span, callee_span: Span) -> Value {
+        if args.iter().any(|a| a.value.is_error()) {
+            return Value::Error;
+        }
+        let f = match f {
+            Value::Function(f) => f.clone(),
+            Value::Error => return Value::Error,
+            other => {
+                let ty = other.ty();
+                return self.error(
+                    Diagnostic::error("E0206", format!("a {ty} is not a function")).label(
+                        callee_span,
+                        format!("this is a {ty}, which cannot be called"),
+                    ),
+                );
+            }
+        };
+        if self.call_depth >= MAX_CALL_DEPTH {
+            return self.error(
+                Diagnostic::error("E0401", "recursion too deep")
+                    .label(span, format!("this call is {MAX_CALL_DEPTH} calls deep"))
+                    .note(format!(
+                        "functions may nest at most {MAX_CALL_DEPTH} calls deep at compile time"
+                    ))
+                    .help("check that the recursion reaches its base case"),
+            );
+        }
+        self.call_depth += 1;
+        let out = match &*f {
+            Function::Builtin(name) => builtins::call(self, name, args, span),
+            Function::User { file, def, .. } => self.call_user(*file, def, args, span),
+            Function::Lambda {
+                file,
+                params,
+                body,
+                env,
+                ..
+            } => {
+                if args.len() != params.len() || args.iter().any(|a| a.name.is_some()) {
+                    let names: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
+                    self.error(
+                        Diagnostic::error(
+                            "E0202",
+                            format!(
+                                "this function takes {} argument{}",
+                                params.len(),
+                                plural(params.len())
+                            ),
+                        )
+                        .label(
+                            span,
+                            format!("called with {} argument{}", args.len(), plural(args.len())),
+                        )
+                        .note(format!(
+                            "the function is `|{}| ...`, and takes positional arguments only",
+                            names.join(", ")
+                        )),
+                    )
+                } else {
+                    let mut inner = env.clone();
+                    for (p, a) in params.iter().zip(args) {
+                        inner = inner.bind(&p.name, a.value, p.span).0;
+                    }
+                    self.eval(*file, &inner, *body)
+                }
+            }
+        };
+        self.call_depth -= 1;
+        out
+    }
+
+    fn call_user(&mut self, file: FileId, def: &FnDef, args: Vec<ArgVal>, span: Span) -> Value {
+        let names: Vec<&str> = def.params.iter().map(|p| p.name.name.as_str()).collect();
+        let Some(slots) = self.bind(&def.name.name, &names, args, span) else {
+            return Value::Error;
+        };
+        let mut env = Env::default();
+        let mut scopes = vec![];
+        let mut ok = true;
+        for (p, slot) in def.params.iter().zip(slots) {
+            let Some(ty) = self.resolve_type(&p.ty) else {
+                ok = false;
+                continue;
+            };
+            let (v, vspan) = match (slot, p.default) {
+                (Some(a), _) => (a.value, a.span),
+                (None, Some(d)) => (self.eval(file, &Env::default(), d), self.span(file, d)),
+                (None, None) => {
+                    self.missing(&def.name.name, &p.name.name, span);
+                    ok = false;
+                    continue;
+                }
+            };
+            let v = ops::coerce(self, v, &ty);
+            if !self.expect(
+                &v,
+                &ty,
+                vspan,
+                &format!("argument `{}` of `{}`", p.name.name, def.name.name),
+            ) {
+                ok = false;
+                continue;
+            }
+            let (e, s) = env.bind(&p.name.name, v, p.name.span);
+            env = e;
+            scopes.push(s);
+        }
+        if !ok {
+            return Value::Error;
+        }
+        let out = self.eval(file, &env, def.body);
+        if self.call_depth == 1 {
+            // Warn once, at the outermost call, not once per recursion level.
+            for s in &scopes {
+                self.warn_unused_scope(s, "parameter");
+            }
+        }
+        match &def.ret {
+            Some(r) => {
+                let Some(ty) = self.resolve_type(r) else {
+                    return Value::Error;
+                };
+                let out = ops::coerce(self, out, &ty);
+                let body_span = self.span(file, def.body);
+                if self.expect(
+                    &out,
+                    &ty,
+                    body_span,
+                    &format!("the result of `{}`", def.name.name),
+                ) {
+                    out
+                } else {
+                    Value::Error
+                }
+            }
+            None => out,
+        }
+    }
+
+    fn list(&mut self, file: FileId, env: &Env, xs: &[ExprId], span: Span) -> Value {
+        let vals: Vec<Value> = xs.iter().map(|x| self.eval(file, env, *x)).collect();
+        if vals.iter().any(Value::is_error) {
+            return Value::Error;
+        }
+        if vals.len() == 4 && vals.iter().all(|v| v.ty() == Type::Num) {
+            return ops::make_vec4(self, &vals);
+        }
+        let Some(first) = vals.first() else {
+            return Value::List(Rc::new(vec![]));
+        };
+        let ty = first.ty();
+        for (v, x) in vals.iter().zip(xs).skip(1) {
+            if !ty.accepts(&v.ty()) {
+                let xspan = self.span(file, *x);
+                return self.error(
+                    Diagnostic::error("E0201", "list elements must all have one type")
+                        .label(xspan, format!("this is {}", article(&v.ty())))
+                        .label(
+                            self.span(file, xs[0]),
+                            format!("the first element is {}", article(&ty)),
+                        )
+                        .label(span, "in this list"),
+                );
+            }
+        }
+        Value::List(Rc::new(vals))
+    }
+
+    fn binary(
+        &mut self,
+        file: FileId,
+        env: &Env,
+        op: BinOp,
+        a: ExprId,
+        b: ExprId,
+        span: Span,
+    ) -> Value {
+        let av = self.eval(file, env, a);
+        // Short-circuit constant booleans so guards like `n > 0 && xs[n - 1] > 0` work.
+        match (op, &av) {
+            (BinOp::And, Value::Bool(false)) => return Value::Bool(false),
+            (BinOp::Or, Value::Bool(true)) => return Value::Bool(true),
+            _ => {}
+        }
+        let bv = self.eval(file, env, b);
+        ops::binary(
+            self,
+            op,
+            av,
+            bv,
+            self.span(file, a),
+            self.span(file, b),
+            span,
+        )
+    }
+
+    fn if_expr(
+        &mut self,
+        file: FileId,
+        env: &Env,
+        cond: ExprId,
+        then: ExprId,
+        otherwise: ExprId,
+    ) -> Value {
+        let c = self.eval(file, env, cond);
+        let cspan = self.span(file, cond);
+        match c {
+            Value::Bool(true) => self.eval(file, env, then),
+            Value::Bool(false) => self.eval(file, env, otherwise),
+            Value::Error => Value::Error,
+            Value::Field(cid, Type::Bool) => {
+                let a = self.eval(file, env, then);
+                let b = self.eval(file, env, otherwise);
+                ops::select(
+                    self,
+                    cid,
+                    a,
+                    b,
+                    self.span(file, then),
+                    self.span(file, otherwise),
+                )
+            }
+            other => {
+                self.expect(&other, &Type::Bool, cspan, "the condition of `if`");
+                Value::Error
+            }
+        }
+    }
+
+    fn for_expr(
+        &mut self,
+        file: FileId,
+        env: &Env,
+        var: &Ident,
+        iter: ExprId,
+        body: ExprId,
+        span: Span,
+    ) -> Value {
+        let it = self.eval(file, env, iter);
+        let ispan = self.span(file, iter);
+        if !self.require_const(&it, ispan, "what a `for` loops over") {
+            return Value::Error;
+        }
+        let items: Vec<Value> = match it {
+            Value::List(xs) => xs.to_vec(),
+            Value::Vec4(v) => v.iter().map(|x| Value::Num(*x)).collect(),
+            Value::Error => return Value::Error,
+            other => {
+                let ty = other.ty();
+                return self.error(
+                    Diagnostic::error("E0201", format!("cannot loop over {}", article(&ty)))
+                        .label(ispan, format!("expected a list or a range, found {ty}"))
+                        .help("loop over a range such as `0..8` or a list such as `[1, 2, 3]`"),
+                );
+            }
+        };
+        let mut out = Vec::with_capacity(items.len());
+        let mut used = false;
+        for item in items {
+            let (inner, scope) = env.bind(&var.name, item, var.span);
+            let v = self.eval(file, &inner, body);
+            used |= scope.used.get();
+            if v.is_error() {
+                return Value::Error;
+            }
+            out.push(v);
+            if !self.tick(span) {
+                return Value::Error;
+            }
+        }
+        if !used && !var.name.starts_with('_') && !out.is_empty() && !self.aborted {
+            self.diags
+                .push(unused(&var.name, var.span, "loop variable"));
+        }
+        if let Some(first) = out.first() {
+            let ty = first.ty();
+            if let Some(bad) = out.iter().find(|v| !ty.accepts(&v.ty())) {
+                let bty = bad.ty();
+                return self.error(
+                    Diagnostic::error("E0201", "a `for` must give one type of value").label(
+                        self.span(file, body),
+                        format!("this gives {} and also {}", article(&ty), article(&bty)),
+                    ),
+                );
+            }
+        }
+        Value::List(Rc::new(out))
+    }
+}
+
+pub fn duplicate(name: &Ident, first: Span) -> Diagnostic {
+    Diagnostic::error("E0102", format!("`{}` is defined twice", name.name))
+        .label(name.span, "defined again here")
+        .label(first, "first defined here")
+        .help("rename one of them")
+}
+
+fn unused(name: &str, span: Span, what: &str) -> Diagnostic {
+    Diagnostic::warning("W0001", format!("unused {what} `{name}`"))
+        .label(span, "never used")
+        .help(format!("remove it, or name it `_{name}` to keep it"))
+}
+
+pub fn article(t: &Type) -> String {
+    let s = t.to_string();
+    let vowel = s.starts_with(['a', 'e', 'i', 'o', 'u']);
+    format!("{} {s}", if vowel { "an" } else { "a" })
+}
+
+pub fn plural(n: usize) -> &'static str {
+    if n == 1 { "" } else { "s" }
+}
+
+fn param_list(params: &[&str]) -> String {
+    if params.is_empty() {
+        "no arguments".to_string()
+    } else {
+        params
+            .iter()
+            .map(|p| format!("`{p}`"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// `#rrggbb` is sRGB; the renderer works in linear light.
+pub fn srgb_to_linear(c: f64) -> f64 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}

@@ -1,0 +1,662 @@
+//! Operators and maths on values: one set of type rules, applied to constants directly and
+//! recorded as field nodes when an operand is known only per point or per frame.
+
+use super::eval::{Checker, article};
+use super::suggest::did_you_mean;
+use super::types::Type;
+use super::value::*;
+use crate::diagnostic::Diagnostic;
+use crate::source::Span;
+use crate::syntax::ast::{BinOp, Ident, UnOp};
+use std::rc::Rc;
+
+/// A numeric value as lanes: num/angle 1, color 3, vec4 4.
+fn lanes(v: &Value) -> Option<Vec<f64>> {
+    match v {
+        Value::Num(x) | Value::Angle(x) => Some(vec![*x]),
+        Value::Vec4(a) => Some(a.to_vec()),
+        Value::Color(c) => Some(c.to_vec()),
+        _ => None,
+    }
+}
+
+fn from_lanes(ty: &Type, xs: &[f64]) -> Value {
+    match ty {
+        Type::Angle => Value::Angle(xs[0]),
+        Type::Vec4 => Value::Vec4([xs[0], xs[1], xs[2], xs[3]]),
+        Type::Color => Value::Color([xs[0], xs[1], xs[2]]),
+        _ => Value::Num(xs[0]),
+    }
+}
+
+fn is_numeric(t: &Type) -> bool {
+    matches!(t, Type::Num | Type::Angle | Type::Vec4 | Type::Color)
+}
+
+/// Floored modulo: the result has the sign of the divisor, so cell indices map into 0..m.
+pub fn floor_mod(a: f64, b: f64) -> f64 {
+    a - b * (a / b).floor()
+}
+
+/// The type of `a op b`, or why there is none.
+pub fn binary_type(op: BinOp, a: &Type, b: &Type) -> Result<Type, &'static str> {
+    use Type::*;
+    match op {
+        BinOp::Add | BinOp::Sub => match (a, b) {
+            (x, y) if x == y && is_numeric(x) => Ok(x.clone()),
+            (Angle, Num) | (Num, Angle) => Err("angle-num"),
+            _ => Err(""),
+        },
+        BinOp::Mul => match (a, b) {
+            (Num, x) | (x, Num) if is_numeric(x) => Ok(x.clone()),
+            (Vec4, Vec4) => Ok(Vec4),
+            (Color, Color) => Ok(Color),
+            _ => Err(""),
+        },
+        BinOp::Div => match (a, b) {
+            (x, Num) if is_numeric(x) => Ok(x.clone()),
+            (Vec4, Vec4) => Ok(Vec4),
+            (Color, Color) => Ok(Color),
+            (Angle, Angle) => Ok(Num),
+            (Num, Angle) => Err("angle-num"),
+            _ => Err(""),
+        },
+        BinOp::Mod => match (a, b) {
+            (Num, Num) => Ok(Num),
+            (Angle, Angle) => Ok(Angle),
+            (Vec4, Num) | (Vec4, Vec4) => Ok(Vec4),
+            (Angle, Num) | (Num, Angle) => Err("angle-num"),
+            _ => Err(""),
+        },
+        BinOp::Lt | BinOp::Le | BinOp::Gt | BinOp::Ge => match (a, b) {
+            (Num, Num) | (Angle, Angle) => Ok(Bool),
+            (Angle, Num) | (Num, Angle) => Err("angle-num"),
+            _ => Err(""),
+        },
+        BinOp::Eq | BinOp::Ne => match (a, b) {
+            (x, y) if x == y && matches!(x, Num | Angle | Bool | Vec4 | Color | Str | Plane) => {
+                Ok(Bool)
+            }
+            (Angle, Num) | (Num, Angle) => Err("angle-num"),
+            _ => Err(""),
+        },
+        BinOp::And | BinOp::Or => match (a, b) {
+            (Bool, Bool) => Ok(Bool),
+            _ => Err(""),
+        },
+        BinOp::Range => match (a, b) {
+            (Num, Num) => Ok(List(Box::new(Num))),
+            _ => Err(""),
+        },
+        BinOp::Dims => match (a, b) {
+            (Num, Num) => Ok(Size),
+            _ => Err(""),
+        },
+    }
+}
+
+/// `a op b` on constants whose types passed `binary_type`.
+pub fn const_binary(op: BinOp, a: &Value, b: &Value, ty: &Type) -> Value {
+    match (op, a, b) {
+        (BinOp::And, Value::Bool(x), Value::Bool(y)) => return Value::Bool(*x && *y),
+        (BinOp::Or, Value::Bool(x), Value::Bool(y)) => return Value::Bool(*x || *y),
+        (BinOp::Eq, x, y) => return Value::Bool(x == y),
+        (BinOp::Ne, x, y) => return Value::Bool(x != y),
+        _ => {}
+    }
+    let (Some(x), Some(y)) = (lanes(a), lanes(b)) else {
+        return Value::Error;
+    };
+    let n = x.len().max(y.len());
+    let get = |v: &[f64], i: usize| if v.len() == 1 { v[0] } else { v[i] };
+    let f = |p: f64, q: f64| match op {
+        BinOp::Add => p + q,
+        BinOp::Sub => p - q,
+        BinOp::Mul => p * q,
+        BinOp::Div => p / q,
+        BinOp::Mod => floor_mod(p, q),
+        _ => f64::NAN,
+    };
+    match op {
+        BinOp::Lt => Value::Bool(x[0] < y[0]),
+        BinOp::Le => Value::Bool(x[0] <= y[0]),
+        BinOp::Gt => Value::Bool(x[0] > y[0]),
+        BinOp::Ge => Value::Bool(x[0] >= y[0]),
+        _ => from_lanes(
+            ty,
+            &(0..n)
+                .map(|i| f(get(&x, i), get(&y, i)))
+                .collect::<Vec<_>>(),
+        ),
+    }
+}
+
+pub fn binary(
+    ck: &mut Checker,
+    op: BinOp,
+    a: Value,
+    b: Value,
+    aspan: Span,
+    bspan: Span,
+    span: Span,
+) -> Value {
+    if a.is_error() || b.is_error() {
+        return Value::Error;
+    }
+    let (ta, tb) = (a.ty(), b.ty());
+    let ty = match binary_type(op, &ta, &tb) {
+        Ok(t) => t,
+        Err(why) => {
+            let d = Diagnostic::error(
+                if why == "angle-num" { "E0210" } else { "E0207" },
+                format!(
+                    "`{}` does not work on {} and {}",
+                    op.symbol(),
+                    article(&ta),
+                    article(&tb)
+                ),
+            )
+            .label(aspan, format!("this is {}", article(&ta)))
+            .label(bspan, format!("this is {}", article(&tb)));
+            let d = match (why, op) {
+                ("angle-num", _) => d
+                    .note("angles and plain numbers are kept apart so that units cannot be mixed up")
+                    .help("give the number a unit (`30deg`, `0.5rad`, `0.25turn`), or divide the angle by one (`a / 1deg`)"),
+                (_, BinOp::Add | BinOp::Sub) if ta != tb => d.help("both sides of `+` and `-` must have the same type"),
+                (_, BinOp::Dims) => d.help("an image size is two whole numbers: `512 x 384`"),
+                (_, BinOp::And | BinOp::Or) => d.help("`&&` and `||` combine booleans, such as comparisons"),
+                _ => d,
+            };
+            return ck.error(d);
+        }
+    };
+    let deps = ck.deps(&a) | ck.deps(&b);
+    if deps != 0 {
+        if matches!(op, BinOp::Range | BinOp::Dims) {
+            let what = if op == BinOp::Range {
+                "a range's ends"
+            } else {
+                "an image size"
+            };
+            ck.require_const(
+                if ck.deps(&a) != 0 { &a } else { &b },
+                if ck.deps(&a) != 0 { aspan } else { bspan },
+                what,
+            );
+            return Value::Error;
+        }
+        if matches!(op, BinOp::Eq | BinOp::Ne)
+            && !matches!(ta, Type::Num | Type::Angle | Type::Bool)
+        {
+            return ck.error(
+                Diagnostic::error(
+                    "E0208",
+                    format!("cannot compare {} values that vary per point or frame", ta),
+                )
+                .label(span, "this comparison must be known before rendering")
+                .help("compare their components instead, as in `c.x == 0`"),
+            );
+        }
+        let (la, lb) = (ck.lift(&a), ck.lift(&b));
+        return ck.field(FieldOp::Binary(op, la, lb), ty);
+    }
+    match (op, &a, &b) {
+        (BinOp::Range, Value::Num(lo), Value::Num(hi)) => range(ck, *lo, *hi, aspan, bspan, span),
+        (BinOp::Dims, Value::Num(w), Value::Num(h)) => Value::Size(*w, *h),
+        (BinOp::Div | BinOp::Mod, _, Value::Num(z)) if *z == 0.0 => ck.error(
+            Diagnostic::error("E0302", "division by zero")
+                .label(bspan, "this is zero")
+                .label(aspan, "so this cannot be divided by it"),
+        ),
+        _ => const_binary(op, &a, &b, &ty),
+    }
+}
+
+fn range(ck: &mut Checker, lo: f64, hi: f64, aspan: Span, bspan: Span, span: Span) -> Value {
+    for (v, s) in [(lo, aspan), (hi, bspan)] {
+        if v.fract() != 0.0 {
+            return ck.error(
+                Diagnostic::error("E0209", "a range needs whole numbers")
+                    .label(s, format!("{} is not a whole number", Num(v)))
+                    .help("use `floor(...)` or `round(...)` to make it whole"),
+            );
+        }
+    }
+    let len = (hi - lo).max(0.0);
+    if len > super::eval::MAX_LIST as f64 {
+        return ck.error(
+            Diagnostic::error("E0402", "range too large")
+                .label(span, format!("this range has {} items", Num(len)))
+                .note(format!(
+                    "a range or list may have at most {} items",
+                    super::eval::MAX_LIST
+                ))
+                .help("use `tile` to repeat a shape instead of listing copies"),
+        );
+    }
+    Value::List(Rc::new(
+        (0..len as usize)
+            .map(|i| Value::Num(lo + i as f64))
+            .collect(),
+    ))
+}
+
+pub fn unary(ck: &mut Checker, op: UnOp, v: Value, span: Span) -> Value {
+    let ty = v.ty();
+    let ok = match op {
+        UnOp::Neg => is_numeric(&ty),
+        UnOp::Not => ty == Type::Bool,
+    };
+    if v.is_error() {
+        return Value::Error;
+    }
+    if !ok {
+        let sym = if op == UnOp::Neg { "-" } else { "!" };
+        return ck.error(
+            Diagnostic::error(
+                "E0207",
+                format!("`{sym}` does not work on {}", article(&ty)),
+            )
+            .label(span, format!("this is {}", article(&ty))),
+        );
+    }
+    if ck.deps(&v) != 0 {
+        let a = ck.lift(&v);
+        return ck.field(FieldOp::Unary(op, a), ty);
+    }
+    match (op, &v) {
+        (UnOp::Not, Value::Bool(b)) => Value::Bool(!b),
+        _ => from_lanes(
+            &ty,
+            &lanes(&v)
+                .unwrap_or_default()
+                .iter()
+                .map(|x| -x)
+                .collect::<Vec<_>>(),
+        ),
+    }
+}
+
+pub fn make_vec4(ck: &mut Checker, vals: &[Value]) -> Value {
+    if vals.iter().all(|v| ck.deps(v) == 0) {
+        let xs: Vec<f64> = vals
+            .iter()
+            .map(|v| if let Value::Num(x) = v { *x } else { 0.0 })
+            .collect();
+        return Value::Vec4([xs[0], xs[1], xs[2], xs[3]]);
+    }
+    let ids = [
+        ck.lift(&vals[0]),
+        ck.lift(&vals[1]),
+        ck.lift(&vals[2]),
+        ck.lift(&vals[3]),
+    ];
+    ck.field(FieldOp::MakeVec4(ids), Type::Vec4)
+}
+
+pub fn make_color(ck: &mut Checker, vals: &[Value]) -> Value {
+    if vals.iter().all(|v| ck.deps(v) == 0) {
+        let xs: Vec<f64> = vals
+            .iter()
+            .map(|v| if let Value::Num(x) = v { *x } else { 0.0 })
+            .collect();
+        return Value::Color([xs[0], xs[1], xs[2]]);
+    }
+    let ids = [ck.lift(&vals[0]), ck.lift(&vals[1]), ck.lift(&vals[2])];
+    ck.field(FieldOp::MakeColor(ids), Type::Color)
+}
+
+/// Implicit conversions: a number where a colour is wanted is a grey.
+pub fn coerce(ck: &mut Checker, v: Value, want: &Type) -> Value {
+    if *want == Type::Color && v.ty() == Type::Num {
+        return make_color(ck, &[v.clone(), v.clone(), v]);
+    }
+    v
+}
+
+pub fn component(ck: &mut Checker, v: Value, field: &Ident, span: Span) -> Value {
+    let names: &[&str] = match v.ty() {
+        Type::Vec4 => &["x", "y", "z", "w"],
+        Type::Color => &["r", "g", "b"],
+        Type::Size => &["width", "height"],
+        _ => &[],
+    };
+    if v.is_error() {
+        return Value::Error;
+    }
+    let Some(i) = names.iter().position(|n| *n == field.name) else {
+        let ty = v.ty();
+        let hint = did_you_mean(&field.name, names.iter().copied()).or_else(|| {
+            (!names.is_empty()).then(|| format!("{} has the components {}", ty, names.join(", ")))
+        });
+        return ck.error(
+            Diagnostic::error(
+                "E0101",
+                format!("{} has no component `{}`", article(&ty), field.name),
+            )
+            .label(field.span, "unknown component")
+            .label(span, format!("this is {}", article(&ty)))
+            .maybe_help(hint),
+        );
+    };
+    match &v {
+        Value::Vec4(a) => Value::Num(a[i]),
+        Value::Color(c) => Value::Num(c[i]),
+        Value::Size(w, h) => Value::Num(if i == 0 { *w } else { *h }),
+        Value::Field(id, _) => ck.field(FieldOp::Component(*id, i as u8), Type::Num),
+        _ => Value::Error,
+    }
+}
+
+fn liftable(t: &Type) -> bool {
+    matches!(
+        t,
+        Type::Num
+            | Type::Angle
+            | Type::Bool
+            | Type::Vec4
+            | Type::Color
+            | Type::Material
+            | Type::Unknown
+    )
+}
+
+pub fn index(ck: &mut Checker, list: Value, idx: Value, lspan: Span, ispan: Span) -> Value {
+    if list.is_error() || idx.is_error() {
+        return Value::Error;
+    }
+    let items: Vec<Value> = match &list {
+        Value::List(xs) => xs.to_vec(),
+        Value::Vec4(a) => a.iter().map(|x| Value::Num(*x)).collect(),
+        Value::Field(id, Type::Vec4) => {
+            let id = *id;
+            (0..4)
+                .map(|i| ck.field(FieldOp::Component(id, i), Type::Num))
+                .collect()
+        }
+        other => {
+            let ty = other.ty();
+            return ck.error(
+                Diagnostic::error("E0207", format!("cannot index {}", article(&ty)))
+                    .label(lspan, format!("this is {}, not a list", article(&ty))),
+            );
+        }
+    };
+    if !ck.expect(&idx, &Type::Num, ispan, "an index") {
+        return Value::Error;
+    }
+    match idx {
+        Value::Num(i) => {
+            if i.fract() != 0.0 || i < 0.0 || i >= items.len() as f64 {
+                let why = if i.fract() != 0.0 {
+                    "is not a whole number".to_string()
+                } else {
+                    format!("is outside 0..{}", items.len())
+                };
+                return ck.error(
+                    Diagnostic::error("E0209", "index out of range")
+                        .label(ispan, format!("the index {} {why}", Num(i)))
+                        .label(
+                            lspan,
+                            format!(
+                                "this list has {} item{}",
+                                items.len(),
+                                super::eval::plural(items.len())
+                            ),
+                        )
+                        .help("wrap the index with `mod`, as in `xs[i mod len(xs)]`"),
+                );
+            }
+            items[i as usize].clone()
+        }
+        Value::Field(iid, _) => {
+            let ty = items.first().map_or(Type::Unknown, Value::ty);
+            if items.is_empty() || !liftable(&ty) {
+                return ck.error(
+                    Diagnostic::error("E0208", format!("cannot choose {} per point or frame", article(&ty)))
+                        .label(ispan, "this index is known only while rendering")
+                        .note("lists of numbers, angles, vectors, colours, booleans and materials can be indexed this way"),
+                );
+            }
+            let ids: Vec<FieldId> = items.iter().map(|v| ck.lift(v)).collect();
+            ck.field(FieldOp::Index(ids, iid), ty)
+        }
+        _ => Value::Error,
+    }
+}
+
+pub fn select(
+    ck: &mut Checker,
+    cond: FieldId,
+    a: Value,
+    b: Value,
+    aspan: Span,
+    bspan: Span,
+) -> Value {
+    if a.is_error() || b.is_error() {
+        return Value::Error;
+    }
+    let (ta, tb) = (a.ty(), b.ty());
+    let (a, b) = (coerce(ck, a, &tb), coerce(ck, b, &ta));
+    let (ta, tb) = (a.ty(), b.ty());
+    if !ta.accepts(&tb) {
+        return ck.error(
+            Diagnostic::error("E0201", "the branches of `if` have different types")
+                .label(aspan, format!("this is {}", article(&ta)))
+                .label(bspan, format!("this is {}", article(&tb)))
+                .help("both branches must give the same type of value"),
+        );
+    }
+    if !liftable(&ta) {
+        let deps = ck.fields.get(cond).deps;
+        return ck.error(
+            Diagnostic::error("E0208", format!("cannot choose between {} values per point or frame", ta))
+                .label(aspan, format!("the condition depends on {}", describe_deps(deps)))
+                .note("numbers, angles, vectors, colours, booleans and materials can be chosen this way")
+                .help("decide with a condition known at compile time, or move the choice into a material map"),
+        );
+    }
+    let (la, lb) = (ck.lift(&a), ck.lift(&b));
+    ck.field(FieldOp::Select(cond, la, lb), ta)
+}
+
+impl MathFn {
+    pub fn from_name(name: &str) -> Option<MathFn> {
+        use MathFn::*;
+        Some(match name {
+            "sin" => Sin,
+            "cos" => Cos,
+            "tan" => Tan,
+            "asin" => Asin,
+            "acos" => Acos,
+            "atan" => Atan,
+            "atan2" => Atan2,
+            "sqrt" => Sqrt,
+            "abs" => Abs,
+            "floor" => Floor,
+            "ceil" => Ceil,
+            "round" => Round,
+            "fract" => Fract,
+            "sign" => Sign,
+            "exp" => Exp,
+            "log" => Log,
+            "pow" => Pow,
+            "min" => Min,
+            "max" => Max,
+            "clamp" => Clamp,
+            "mix" => Mix,
+            "length" => Length,
+            "dot" => Dot,
+            "normalize" => Normalize,
+            _ => return None,
+        })
+    }
+
+    pub fn params(self) -> &'static [&'static str] {
+        use MathFn::*;
+        match self {
+            Sin | Cos | Tan => &["angle"],
+            Atan2 => &["y", "x"],
+            Pow => &["x", "y"],
+            Min | Max | Dot => &["a", "b"],
+            Clamp => &["x", "lo", "hi"],
+            Mix => &["a", "b", "k"],
+            Length | Normalize => &["v"],
+            _ => &["x"],
+        }
+    }
+
+    /// Expected types of the arguments given the first one's type, and the result type.
+    pub fn signature(self, first: &Type) -> (Vec<Type>, Type) {
+        use MathFn::*;
+        use Type as T;
+        let x = if is_numeric(first) {
+            first.clone()
+        } else {
+            T::Num
+        };
+        match self {
+            Sin | Cos | Tan => (vec![T::Angle], T::Num),
+            Asin | Acos | Atan => (vec![T::Num], T::Angle),
+            Atan2 => (vec![T::Num, T::Num], T::Angle),
+            Sqrt | Exp | Log => {
+                let x = if *first == T::Vec4 { T::Vec4 } else { T::Num };
+                (vec![x.clone()], x)
+            }
+            Pow => (vec![T::Num, T::Num], T::Num),
+            Abs | Floor | Ceil | Round | Fract | Sign => (vec![x.clone()], x),
+            Min | Max => (vec![x.clone(), x.clone()], x),
+            Clamp => (vec![x.clone(), x.clone(), x.clone()], x),
+            Mix => (vec![x.clone(), x.clone(), T::Num], x),
+            Length => (vec![T::Vec4], T::Num),
+            Dot => (vec![T::Vec4, T::Vec4], T::Num),
+            Normalize => (vec![T::Vec4], T::Vec4),
+        }
+    }
+
+    /// Evaluate on constants of the right types.
+    pub fn apply(self, args: &[Value], ty: &Type) -> Value {
+        use MathFn::*;
+        let l: Vec<Vec<f64>> = args.iter().map(|a| lanes(a).unwrap_or_default()).collect();
+        let map1 =
+            |f: fn(f64) -> f64| from_lanes(ty, &l[0].iter().map(|x| f(*x)).collect::<Vec<_>>());
+        let zip = |f: &dyn Fn(f64, f64) -> f64| {
+            from_lanes(
+                ty,
+                &l[0]
+                    .iter()
+                    .zip(&l[1])
+                    .map(|(a, b)| f(*a, *b))
+                    .collect::<Vec<_>>(),
+            )
+        };
+        match self {
+            Sin => Value::Num(l[0][0].sin()),
+            Cos => Value::Num(l[0][0].cos()),
+            Tan => Value::Num(l[0][0].tan()),
+            Asin => Value::Angle(l[0][0].asin()),
+            Acos => Value::Angle(l[0][0].acos()),
+            Atan => Value::Angle(l[0][0].atan()),
+            Atan2 => Value::Angle(l[0][0].atan2(l[1][0])),
+            Sqrt => map1(f64::sqrt),
+            Exp => map1(f64::exp),
+            Log => map1(f64::ln),
+            Abs => map1(f64::abs),
+            Floor => map1(f64::floor),
+            Ceil => map1(f64::ceil),
+            Round => map1(f64::round),
+            Fract => map1(|x| x - x.floor()),
+            Sign => map1(|x| {
+                if x > 0.0 {
+                    1.0
+                } else if x < 0.0 {
+                    -1.0
+                } else {
+                    0.0
+                }
+            }),
+            Pow => Value::Num(l[0][0].powf(l[1][0])),
+            Min => zip(&f64::min),
+            Max => zip(&f64::max),
+            Clamp => from_lanes(
+                ty,
+                &(0..l[0].len())
+                    .map(|i| l[0][i].max(l[1][i]).min(l[2][i]))
+                    .collect::<Vec<_>>(),
+            ),
+            Mix => {
+                let k = l[2][0];
+                zip(&|a, b| a + (b - a) * k)
+            }
+            Length => Value::Num(l[0].iter().map(|x| x * x).sum::<f64>().sqrt()),
+            Dot => Value::Num(l[0].iter().zip(&l[1]).map(|(a, b)| a * b).sum()),
+            Normalize => {
+                let n = l[0].iter().map(|x| x * x).sum::<f64>().sqrt();
+                from_lanes(ty, &l[0].iter().map(|x| x / n).collect::<Vec<_>>())
+            }
+        }
+    }
+}
+
+/// Call a maths builtin: check argument types, then compute or record a field node.
+pub fn math(
+    ck: &mut Checker,
+    f: MathFn,
+    name: &str,
+    args: Vec<super::eval::ArgVal>,
+    span: Span,
+) -> Value {
+    let Some(slots) = ck.bind(name, f.params(), args, span) else {
+        return Value::Error;
+    };
+    let mut vals = Vec::new();
+    let first_ty = slots
+        .first()
+        .and_then(|s| s.as_ref())
+        .map_or(Type::Num, |a| a.value.ty());
+    let (want, ret) = f.signature(&first_ty);
+    for ((slot, p), w) in slots.into_iter().zip(f.params()).zip(&want) {
+        let Some(a) = slot else {
+            return ck.missing(name, p, span);
+        };
+        // Scalars broadcast in clamp's bounds.
+        let v = if *w != Type::Num && a.value.ty() == Type::Num && matches!(f, MathFn::Clamp) {
+            broadcast(ck, a.value, w)
+        } else {
+            a.value
+        };
+        if !ck.expect(&v, w, a.span, &format!("argument `{p}` of `{name}`")) {
+            return Value::Error;
+        }
+        vals.push(v);
+    }
+    if vals.iter().any(|v| ck.deps(v) != 0) {
+        let ids = vals.iter().map(|v| ck.lift(v)).collect();
+        return ck.field(FieldOp::Math(f, ids), ret);
+    }
+    let out = f.apply(&vals, &ret);
+    if lanes(&out).is_some_and(|l| l.iter().any(|x| x.is_nan())) {
+        return ck.error(
+            Diagnostic::error("E0301", format!("`{name}` is undefined here"))
+                .label(span, "this gives no number (NaN)")
+                .help(match f {
+                    MathFn::Sqrt | MathFn::Log => "the argument must not be negative",
+                    MathFn::Asin | MathFn::Acos => "the argument must lie in [-1, 1]",
+                    _ => "check the arguments",
+                }),
+        );
+    }
+    out
+}
+
+fn broadcast(ck: &mut Checker, v: Value, want: &Type) -> Value {
+    match want {
+        Type::Vec4 => make_vec4(ck, &[v.clone(), v.clone(), v.clone(), v]),
+        Type::Color => make_color(ck, &[v.clone(), v.clone(), v]),
+        Type::Angle => match v {
+            Value::Num(x) => Value::Num(x),
+            other => other,
+        },
+        _ => v,
+    }
+}

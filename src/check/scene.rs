@@ -1,0 +1,851 @@
+//! The typed scene: what the checker hands to lowering and rendering, with every default filled
+//! in, and its readable text form (`--emit scene`).
+
+use super::builtins;
+use super::eval::{Checker, duplicate};
+use super::suggest::did_you_mean;
+use super::types::Type;
+use super::value::*;
+use crate::diagnostic::Diagnostic;
+use crate::source::{FileId, Span};
+use crate::syntax::ast::*;
+use std::collections::HashMap;
+use std::fmt::{self, Write};
+use std::rc::Rc;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Denoise {
+    None,
+    Median,
+    Atrous,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quality {
+    Draft,
+    Preview,
+    Final,
+    Custom,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    pub spp: u32,
+    pub bounces: u32,
+    pub epsilon: f64,
+    pub max_steps: u32,
+    pub seed: u64,
+    pub denoise: Denoise,
+    pub quality: Quality,
+    pub fps: f64,
+    pub exposure: f64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 320,
+            height: 240,
+            frames: 1,
+            spp: 16,
+            bounces: 8,
+            epsilon: 1e-4,
+            max_steps: 1000,
+            seed: 0,
+            denoise: Denoise::None,
+            quality: Quality::Custom,
+            fps: 20.0,
+            exposure: 1.0,
+        }
+    }
+}
+
+impl Quality {
+    /// The preset's samples, bounces, marching epsilon and step limit.
+    fn apply(self, r: &mut RenderSettings) {
+        let (spp, bounces, eps, steps) = match self {
+            Quality::Draft => (4, 4, 1e-3, 200),
+            Quality::Preview => (16, 6, 1e-4, 1000),
+            Quality::Final => (256, 12, 1e-5, 5000),
+            Quality::Custom => return,
+        };
+        (r.spp, r.bounces, r.epsilon, r.max_steps) = (spp, bounces, eps, steps);
+        r.quality = self;
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub from: [f64; 4],
+    pub to: [f64; 4],
+    /// Orientation: plane rotations, whose angles may depend on `t`.
+    pub look: Vec<(Plane, Value)>,
+    /// Horizontal field of view in radians.
+    pub fov: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Object {
+    pub name: String,
+    pub span: Span,
+    pub shape: Rc<Shape>,
+    /// A material, or a field of type material over `p`, `n` and `t`.
+    pub material: Value,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scene {
+    pub render: RenderSettings,
+    pub camera: Camera,
+    pub sky: [f64; 3],
+    pub medium: Rc<Material>,
+    pub objects: Vec<Object>,
+    pub fields: Fields,
+}
+
+const RENDER_KEYS: [&str; 12] = [
+    "size",
+    "frames",
+    "spp",
+    "bounces",
+    "epsilon",
+    "max_steps",
+    "seed",
+    "denoise",
+    "quality",
+    "fps",
+    "exposure",
+    "threads",
+];
+const CAMERA_KEYS: [&str; 4] = ["from", "to", "look", "fov"];
+const OBJECT_KEYS: [&str; 2] = ["shape", "material"];
+
+/// Settings of one block by name, each evaluated once; unknown and repeated names reported.
+fn settings(
+    ck: &mut Checker,
+    file: FileId,
+    block: &str,
+    keys: &[&str],
+    items: &[Setting],
+) -> HashMap<String, (Value, Span)> {
+    let mut out: HashMap<String, (Value, Span)> = HashMap::new();
+    let mut first: HashMap<String, Span> = HashMap::new();
+    for s in items {
+        if !keys.contains(&s.name.name.as_str()) {
+            let hint = did_you_mean(&s.name.name, keys.iter().copied());
+            ck.error(
+                Diagnostic::error(
+                    "E0103",
+                    format!("`{block}` has no setting `{}`", s.name.name),
+                )
+                .label(s.name.span, "unknown setting")
+                .note(format!("the settings of `{block}` are {}", keys.join(", ")))
+                .maybe_help(hint),
+            );
+            continue;
+        }
+        if let Some(prev) = first.get(&s.name.name) {
+            ck.error(
+                Diagnostic::error("E0104", format!("`{}` is set twice", s.name.name))
+                    .label(s.name.span, "set again here")
+                    .label(*prev, "first set here")
+                    .help("remove one of them"),
+            );
+            continue;
+        }
+        first.insert(s.name.name.clone(), s.name.span);
+        let v = ck.eval(file, &Default::default(), s.value);
+        out.insert(s.name.name.clone(), (v, ck.span(file, s.value)));
+    }
+    out
+}
+
+/// A whole number in `lo..=hi`, known at compile time.
+fn whole(ck: &mut Checker, v: &(Value, Span), what: &str, lo: f64, hi: f64) -> Option<u64> {
+    let (v, span) = v;
+    if !ck.require_const(v, *span, what) || !ck.expect(v, &Type::Num, *span, what) {
+        return None;
+    }
+    let Value::Num(x) = v else { return None };
+    if x.fract() != 0.0 || *x < lo || *x > hi {
+        ck.error(
+            Diagnostic::error("E0301", format!("{what} is out of range")).label(
+                *span,
+                format!(
+                    "this is {}, but {what} must be a whole number from {} to {}",
+                    Num(*x),
+                    Num(lo),
+                    Num(hi)
+                ),
+            ),
+        );
+        return None;
+    }
+    Some(*x as u64)
+}
+
+/// A number in `(lo, hi]` (or `[lo, hi]` when `closed`), known at compile time.
+fn number(
+    ck: &mut Checker,
+    v: &(Value, Span),
+    what: &str,
+    lo: f64,
+    hi: f64,
+    closed: bool,
+) -> Option<f64> {
+    let (v, span) = v;
+    if !ck.require_const(v, *span, what) || !ck.expect(v, &Type::Num, *span, what) {
+        return None;
+    }
+    let Value::Num(x) = v else { return None };
+    let above = if closed { *x >= lo } else { *x > lo };
+    if !above || *x > hi {
+        let open = if closed { "[" } else { "(" };
+        ck.error(
+            Diagnostic::error("E0301", format!("{what} is out of range")).label(
+                *span,
+                format!(
+                    "this is {}, but {what} must lie in {open}{}, {}]",
+                    Num(*x),
+                    Num(lo),
+                    Num(hi)
+                ),
+            ),
+        );
+        return None;
+    }
+    Some(*x)
+}
+
+fn choice<T: Copy>(
+    ck: &mut Checker,
+    v: &(Value, Span),
+    what: &str,
+    options: &[(&str, T)],
+) -> Option<T> {
+    let (v, span) = v;
+    if !ck.expect(v, &Type::Str, *span, what) {
+        return None;
+    }
+    let Value::Str(s) = v else { return None };
+    if let Some((_, t)) = options.iter().find(|(n, _)| **n == **s) {
+        return Some(*t);
+    }
+    let names: Vec<&str> = options.iter().map(|(n, _)| *n).collect();
+    let hint = did_you_mean(s, names.iter().copied());
+    ck.error(
+        Diagnostic::error("E0301", format!("unknown {what} \"{s}\""))
+            .label(
+                *span,
+                format!(
+                    "expected one of {}",
+                    names
+                        .iter()
+                        .map(|n| format!("\"{n}\""))
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ),
+            )
+            .maybe_help(hint),
+    );
+    None
+}
+
+fn vec4(ck: &mut Checker, v: &(Value, Span), what: &str) -> Option<[f64; 4]> {
+    let (v, span) = v;
+    if !ck.expect(v, &Type::Vec4, *span, what) || !ck.require_const(v, *span, what) {
+        return None;
+    }
+    match v {
+        Value::Vec4(a) => Some(*a),
+        _ => None,
+    }
+}
+
+pub fn build(ck: &mut Checker, root: FileId) -> Scene {
+    let ast = ck.ast(root);
+    let mut render = RenderSettings::default();
+    let mut camera = Camera {
+        from: [0.0, 0.0, -4.0, 0.0],
+        to: [0.0, 0.0, -4.0, 0.0],
+        look: vec![],
+        fov: 60f64.to_radians(),
+    };
+    let mut sky = [0.0; 3];
+    let mut medium = Rc::new(Material {
+        kind: MaterialKind::Air,
+        params: vec![],
+    });
+    let mut objects: Vec<Object> = vec![];
+    let mut seen_blocks: HashMap<&str, Span> = HashMap::new();
+    let mut object_names: HashMap<String, Span> = HashMap::new();
+
+    for item in &ast.items {
+        let key = match &item.kind {
+            ItemKind::Block { kind, .. } => Some(kind.keyword()),
+            ItemKind::Sky(_) => Some("sky"),
+            ItemKind::Medium(_) => Some("medium"),
+            _ => None,
+        };
+        if let Some(key) = key {
+            let head = Span {
+                end: item.span.start + key.len() as u32,
+                ..item.span
+            };
+            if let Some(prev) = seen_blocks.get(key) {
+                ck.error(
+                    Diagnostic::error("E0104", format!("`{key}` is given twice"))
+                        .label(head, "given again here")
+                        .label(*prev, "first given here")
+                        .help("a scene has one of each; merge the two"),
+                );
+                continue;
+            }
+            seen_blocks.insert(key, head);
+        }
+        match &item.kind {
+            ItemKind::Block {
+                kind: BlockKind::Render,
+                settings: items,
+            } => {
+                let s = settings(ck, root, "render", &RENDER_KEYS, items);
+                if let Some(q) = s.get("quality") {
+                    let opts = [
+                        ("draft", Quality::Draft),
+                        ("preview", Quality::Preview),
+                        ("final", Quality::Final),
+                        ("custom", Quality::Custom),
+                    ];
+                    if let Some(q) = choice(ck, q, "quality", &opts) {
+                        q.apply(&mut render);
+                    }
+                }
+                if let Some((v, span)) = s.get("size") {
+                    if ck.require_const(v, *span, "the image size")
+                        && ck.expect(v, &Type::Size, *span, "the image size")
+                    {
+                        if let Value::Size(w, h) = v {
+                            let ok = |x: f64| x.fract() == 0.0 && (1.0..=16384.0).contains(&x);
+                            if ok(*w) && ok(*h) {
+                                (render.width, render.height) = (*w as u32, *h as u32);
+                            } else {
+                                ck.error(
+                                    Diagnostic::error("E0301", "image size out of range")
+                                        .label(*span, format!("this is {} x {}, but each side must be a whole number from 1 to 16384", Num(*w), Num(*h))),
+                                );
+                            }
+                        }
+                    }
+                }
+                let u = |ck: &mut Checker, k: &str, lo: f64, hi: f64| {
+                    s.get(k).and_then(|v| whole(ck, v, k, lo, hi))
+                };
+                if let Some(x) = u(ck, "frames", 1.0, 10000.0) {
+                    render.frames = x as u32;
+                }
+                if let Some(x) = u(ck, "spp", 1.0, 1e6) {
+                    render.spp = x as u32;
+                }
+                if let Some(x) = u(ck, "bounces", 0.0, 1000.0) {
+                    render.bounces = x as u32;
+                }
+                if let Some(x) = u(ck, "max_steps", 1.0, 1e6) {
+                    render.max_steps = x as u32;
+                }
+                if let Some(x) = u(ck, "seed", 0.0, 9007199254740992.0) {
+                    render.seed = x;
+                }
+                if let Some(x) = u(ck, "threads", 0.0, 1024.0) {
+                    let _ = x; // accepted for the command line's sake; the renderer decides threads
+                }
+                if let Some(x) = s
+                    .get("epsilon")
+                    .and_then(|v| number(ck, v, "epsilon", 0.0, 1.0, false))
+                {
+                    render.epsilon = x;
+                }
+                if let Some(x) = s
+                    .get("fps")
+                    .and_then(|v| number(ck, v, "fps", 0.0, 100.0, false))
+                {
+                    render.fps = x;
+                }
+                if let Some(x) = s
+                    .get("exposure")
+                    .and_then(|v| number(ck, v, "exposure", 0.0, 1e6, false))
+                {
+                    render.exposure = x;
+                }
+                if let Some(d) = s.get("denoise") {
+                    let opts = [
+                        ("none", Denoise::None),
+                        ("median", Denoise::Median),
+                        ("atrous", Denoise::Atrous),
+                    ];
+                    if let Some(d) = choice(ck, d, "denoiser", &opts) {
+                        render.denoise = d;
+                    }
+                }
+            }
+            ItemKind::Block {
+                kind: BlockKind::Camera,
+                settings: items,
+            } => {
+                let s = settings(ck, root, "camera", &CAMERA_KEYS, items);
+                if let Some(v) = s
+                    .get("from")
+                    .and_then(|v| vec4(ck, v, "the camera's `from`"))
+                {
+                    camera.from = v;
+                    camera.to = v;
+                }
+                if let Some(v) = s.get("to").and_then(|v| vec4(ck, v, "the camera's `to`")) {
+                    camera.to = v;
+                }
+                if let Some((v, span)) = s.get("look")
+                    && ck.expect(v, &Type::Rotation, *span, "the camera's `look`")
+                    && let Value::Rotation(r) = v
+                {
+                    let deps = ck.deps(v);
+                    if deps & (DEP_P | DEP_N) != 0 {
+                        ck.require_const(v, *span, "the camera's `look`");
+                    }
+                    camera.look = r.to_vec();
+                }
+                if let Some((v, span)) = s.get("fov")
+                    && ck.require_const(v, *span, "the field of view")
+                    && ck.expect(v, &Type::Angle, *span, "the field of view")
+                    && let Value::Angle(a) = v
+                {
+                    if *a > 0.0 && *a < std::f64::consts::PI {
+                        camera.fov = *a;
+                    } else {
+                        ck.error(
+                            Diagnostic::error("E0301", "field of view out of range")
+                                .label(*span, format!("this is {}deg, but it must lie strictly between 0deg and 180deg", Num(round9(a.to_degrees())))),
+                        );
+                    }
+                }
+            }
+            ItemKind::Sky(e) => {
+                let v = ck.eval(root, &Default::default(), *e);
+                let span = ck.span(root, *e);
+                let v = super::ops::coerce(ck, v, &Type::Color);
+                if ck.expect(&v, &Type::Color, span, "the sky")
+                    && ck.require_const(&v, span, "the sky")
+                {
+                    if let Value::Color(c) = v {
+                        if c.iter().all(|x| *x >= 0.0) {
+                            sky = c;
+                        } else {
+                            ck.error(
+                                Diagnostic::error("E0301", "the sky cannot be negative")
+                                    .label(span, "a radiance is at least 0"),
+                            );
+                        }
+                    }
+                }
+            }
+            ItemKind::Medium(e) => {
+                let v = ck.eval(root, &Default::default(), *e);
+                let span = ck.span(root, *e);
+                if ck.expect(&v, &Type::Material, span, "the medium")
+                    && ck.require_const(&v, span, "the medium")
+                {
+                    match v {
+                        Value::Material(m)
+                            if matches!(m.kind, MaterialKind::Fog | MaterialKind::Air) =>
+                        {
+                            medium = m
+                        }
+                        Value::Material(m) => {
+                            ck.error(
+                                Diagnostic::error(
+                                    "E0201",
+                                    format!(
+                                        "the medium must be `fog(...)` or `air`, not `{}`",
+                                        m.kind.name()
+                                    ),
+                                )
+                                .label(span, "this material is a surface, not a volume")
+                                .help("write `medium = fog(extinction: 0.1)`"),
+                            );
+                        }
+                        _ => {}
+                    }
+                }
+            }
+            ItemKind::Object {
+                name,
+                settings: items,
+            } => {
+                if let Some(prev) = object_names.get(&name.name) {
+                    ck.error(duplicate(name, *prev));
+                    continue;
+                }
+                object_names.insert(name.name.clone(), name.span);
+                if let Some(o) = object(ck, root, name, items, item.span) {
+                    objects.push(o);
+                }
+            }
+            _ => {}
+        }
+    }
+    if ast
+        .items
+        .iter()
+        .all(|i| !matches!(i.kind, ItemKind::Object { .. }))
+    {
+        ck.diags.push(
+            Diagnostic::warning("W0004", "the scene has no objects")
+                .label(Span::new(root, 0, 0), "nothing to render in this file")
+                .help("add one, as in `object ball { shape = hypersphere(1) }`"),
+        );
+    }
+    let fields = std::mem::take(&mut ck.fields);
+    Scene {
+        render,
+        camera,
+        sky,
+        medium,
+        objects,
+        fields,
+    }
+}
+
+fn object(
+    ck: &mut Checker,
+    root: FileId,
+    name: &Ident,
+    items: &[Setting],
+    span: Span,
+) -> Option<Object> {
+    let s = settings(ck, root, "object", &OBJECT_KEYS, items);
+    let Some((shape, sspan)) = s.get("shape") else {
+        ck.error(
+            Diagnostic::error("E0105", format!("object `{}` has no shape", name.name))
+                .label(name.span, "this object needs `shape = ...`")
+                .help("add a shape, as in `shape = hypersphere(radius: 1)`"),
+        );
+        return None;
+    };
+    if !ck.expect(shape, &Type::Shape, *sspan, "an object's shape") {
+        return None;
+    }
+    let Value::Shape(shape) = shape.clone() else {
+        return None;
+    };
+    let material = match s.get("material") {
+        None => Value::Material(Rc::new(Material {
+            kind: MaterialKind::Diffuse,
+            params: vec![
+                ("albedo", Value::Color([0.8; 3])),
+                ("emission", Value::Color([0.0; 3])),
+            ],
+        })),
+        Some((Value::Function(f), mspan)) => {
+            let p = ck.field(FieldOp::Input(Input::P), Type::Vec4);
+            let n = ck.field(FieldOp::Input(Input::N), Type::Vec4);
+            let args = [p, n]
+                .map(|value| super::eval::ArgVal {
+                    name: None,
+                    value,
+                    span: *mspan,
+                })
+                .to_vec();
+            let v = ck.call(&Value::Function(f.clone()), args, *mspan, *mspan);
+            if !ck.expect(&v, &Type::Material, *mspan, "a material map's result") {
+                return None;
+            }
+            v
+        }
+        Some((v, mspan)) => {
+            if !ck.expect(v, &Type::Material, *mspan, "an object's material") {
+                return None;
+            }
+            v.clone()
+        }
+    };
+    if matches!(&material, Value::Material(m) if m.kind == MaterialKind::Air)
+        && builtins::bounds(&shape).is_some()
+    {
+        // An object of clear air with no medium cannot be seen; say so rather than render nothing.
+        ck.diags.push(
+            Diagnostic::warning("W0003", format!("object `{}` can never be seen", name.name))
+                .label(
+                    span,
+                    "its material is `air`, which neither scatters nor absorbs",
+                )
+                .help("use `fog(...)` for a visible volume, or remove the object"),
+        );
+    }
+    Some(Object {
+        name: name.name.clone(),
+        span,
+        shape,
+        material,
+    })
+}
+
+fn round9(x: f64) -> f64 {
+    (x * 1e9).round() / 1e9
+}
+
+/// Prints values, numbering the field nodes they reach.
+struct Printer<'a> {
+    fields: &'a Fields,
+    ids: HashMap<FieldId, usize>,
+    order: Vec<FieldId>,
+}
+
+impl Printer<'_> {
+    fn field(&mut self, id: FieldId) -> String {
+        if let Some(k) = self.ids.get(&id) {
+            return format!("%{k}");
+        }
+        // Constants read better inline than as numbered nodes.
+        if let FieldOp::Const(v) = &self.fields.get(id).op {
+            let v = v.clone();
+            return self.value(&v);
+        }
+        // Children first, so the listing reads top to bottom.
+        let node = self.fields.get(id).clone();
+        match &node.op {
+            FieldOp::Input(_) | FieldOp::Const(_) => {}
+            FieldOp::Unary(_, a) | FieldOp::Component(a, _) | FieldOp::Cell(_, a) => {
+                self.field(*a);
+            }
+            FieldOp::Binary(_, a, b) => {
+                self.field(*a);
+                self.field(*b);
+            }
+            FieldOp::Math(_, xs) => xs.iter().for_each(|x| {
+                self.field(*x);
+            }),
+            FieldOp::MakeVec4(xs) => xs.iter().for_each(|x| {
+                self.field(*x);
+            }),
+            FieldOp::MakeColor(xs) => xs.iter().for_each(|x| {
+                self.field(*x);
+            }),
+            FieldOp::Select(c, a, b) => {
+                for x in [c, a, b] {
+                    self.field(*x);
+                }
+            }
+            FieldOp::Index(xs, i) => {
+                xs.iter().for_each(|x| {
+                    self.field(*x);
+                });
+                self.field(*i);
+            }
+        }
+        let k = self.order.len();
+        self.ids.insert(id, k);
+        self.order.push(id);
+        format!("%{k}")
+    }
+
+    fn line(&mut self, id: FieldId) -> String {
+        let node = self.fields.get(id).clone();
+        let f = |p: &mut Self, x: &FieldId| p.field(*x);
+        let body = match &node.op {
+            FieldOp::Input(Input::P) => "p".to_string(),
+            FieldOp::Input(Input::N) => "n".to_string(),
+            FieldOp::Input(Input::T) => "t".to_string(),
+            FieldOp::Const(v) => self.value(v),
+            FieldOp::Unary(op, a) => {
+                format!("{}{}", if *op == UnOp::Neg { "-" } else { "!" }, f(self, a))
+            }
+            FieldOp::Binary(op, a, b) => format!("{} {} {}", f(self, a), op.symbol(), f(self, b)),
+            FieldOp::Math(m, xs) => {
+                let args: Vec<String> = xs.iter().map(|x| f(self, x)).collect();
+                format!("{}({})", format!("{m:?}").to_lowercase(), args.join(", "))
+            }
+            FieldOp::Component(a, i) => {
+                format!("{}.{}", f(self, a), ["x", "y", "z", "w"][*i as usize])
+            }
+            FieldOp::MakeVec4(xs) => format!(
+                "[{}]",
+                xs.iter().map(|x| f(self, x)).collect::<Vec<_>>().join(", ")
+            ),
+            FieldOp::MakeColor(xs) => format!(
+                "rgb({})",
+                xs.iter().map(|x| f(self, x)).collect::<Vec<_>>().join(", ")
+            ),
+            FieldOp::Select(c, a, b) => {
+                format!("if {} then {} else {}", f(self, c), f(self, a), f(self, b))
+            }
+            FieldOp::Index(xs, i) => {
+                let items: Vec<String> = xs.iter().map(|x| f(self, x)).collect();
+                format!("[{}][{}]", items.join(", "), f(self, i))
+            }
+            FieldOp::Cell(l, a) => format!("cell({}, {})", lattice(l), f(self, a)),
+        };
+        format!("{body}: {}", node.ty)
+    }
+
+    fn value(&mut self, v: &Value) -> String {
+        match v {
+            Value::Num(x) => Num(*x).to_string(),
+            Value::Angle(a) => format!("{}deg", Num(round9(a.to_degrees()))),
+            Value::Bool(b) => b.to_string(),
+            Value::Vec4(a) => format!(
+                "[{}]",
+                a.iter()
+                    .map(|x| Num(*x).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Value::Color(c) => format!(
+                "rgb({})",
+                c.iter()
+                    .map(|x| Num(round9(*x)).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Value::Str(s) => format!("{s:?}"),
+            Value::Size(w, h) => format!("{} x {}", Num(*w), Num(*h)),
+            Value::Plane(p) => p.name().to_string(),
+            Value::Rotation(r) => self.rotation(r),
+            Value::Lattice(l) => lattice(l),
+            Value::Material(m) => self.material(m),
+            Value::Shape(s) => {
+                let mut out = String::new();
+                self.shape(s, 0, &mut out);
+                out
+            }
+            Value::List(xs) => format!(
+                "[{}]",
+                xs.iter()
+                    .map(|x| self.value(x))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Value::Function(_) => "<function>".to_string(),
+            Value::Field(id, _) => self.field(*id),
+            Value::Error => "<error>".to_string(),
+        }
+    }
+
+    fn rotation(&mut self, r: &[(Plane, Value)]) -> String {
+        if r.is_empty() {
+            return "identity".to_string();
+        }
+        r.iter()
+            .map(|(p, a)| format!("rotate({}, {})", p.name(), self.value(a)))
+            .collect::<Vec<_>>()
+            .join(" |> ")
+    }
+
+    fn material(&mut self, m: &Material) -> String {
+        if m.params.is_empty() {
+            return m.kind.name().to_string();
+        }
+        let ps: Vec<String> = m
+            .params
+            .iter()
+            .map(|(n, v)| format!("{n}: {}", self.value(v)))
+            .collect();
+        format!("{}({})", m.kind.name(), ps.join(", "))
+    }
+
+    fn shape(&mut self, s: &Shape, indent: usize, out: &mut String) {
+        let ps: Vec<String> = s
+            .params
+            .iter()
+            .map(|(n, v)| format!("{n}: {}", self.value(v)))
+            .collect();
+        let _ = writeln!(
+            out,
+            "{:w$}{}({})",
+            "",
+            s.kind.name(),
+            ps.join(", "),
+            w = indent * 2
+        );
+        for c in &s.children {
+            self.shape(c, indent + 1, out);
+        }
+    }
+}
+
+fn lattice(l: &Lattice) -> String {
+    let v = |a: &[f64; 4]| {
+        format!(
+            "[{}]",
+            a.iter()
+                .map(|x| Num(*x).to_string())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    };
+    match l {
+        Lattice::D4 { scale } => format!("d4(scale: {})", Num(*scale)),
+        Lattice::Grid { spacing, limit } => {
+            format!("grid(spacing: {}, limit: {})", v(spacing), v(limit))
+        }
+    }
+}
+
+impl fmt::Display for Scene {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let r = &self.render;
+        let mut p = Printer {
+            fields: &self.fields,
+            ids: HashMap::new(),
+            order: vec![],
+        };
+        writeln!(f, "render")?;
+        writeln!(f, "  size {} x {}", r.width, r.height)?;
+        writeln!(
+            f,
+            "  frames {}  spp {}  bounces {}",
+            r.frames, r.spp, r.bounces
+        )?;
+        writeln!(
+            f,
+            "  epsilon {}  max_steps {}  seed {}",
+            Num(r.epsilon),
+            r.max_steps,
+            r.seed
+        )?;
+        writeln!(
+            f,
+            "  denoise {:?}  quality {:?}  fps {}  exposure {}",
+            r.denoise,
+            r.quality,
+            Num(r.fps),
+            Num(r.exposure)
+        )?;
+        let c = &self.camera;
+        writeln!(f, "camera")?;
+        writeln!(f, "  from {}", p.value(&Value::Vec4(c.from)))?;
+        writeln!(f, "  to {}", p.value(&Value::Vec4(c.to)))?;
+        writeln!(f, "  look {}", p.rotation(&c.look))?;
+        writeln!(f, "  fov {}deg", Num(round9(c.fov.to_degrees())))?;
+        writeln!(f, "sky {}", p.value(&Value::Color(self.sky)))?;
+        writeln!(f, "medium {}", p.material(&self.medium))?;
+        for o in &self.objects {
+            writeln!(f, "object {}", o.name)?;
+            let mut shape = String::new();
+            p.shape(&o.shape, 2, &mut shape);
+            writeln!(f, "  shape\n{}", shape.trim_end())?;
+            writeln!(f, "  material {}", p.value(&o.material))?;
+        }
+        if !p.order.is_empty() {
+            writeln!(f, "fields")?;
+            let mut i = 0;
+            while i < p.order.len() {
+                let id = p.order[i];
+                let line = p.line(id);
+                writeln!(f, "  %{i} = {line}")?;
+                i += 1;
+            }
+        }
+        Ok(())
+    }
+}
