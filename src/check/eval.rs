@@ -487,22 +487,27 @@ impl<'a> Checker<'a> {
     /// Evaluate every global (so errors in unused definitions are still reported) and warn
     /// about unused ones in the root file.
     pub fn finish_globals(&mut self, root: FileId) {
-        for g in 0..self.globals.len() {
-            if self.globals[g].file != root {
-                continue;
-            }
-            let used = self.globals[g].used;
+        let roots: Vec<usize> = (0..self.globals.len())
+            .filter(|g| self.globals[*g].file == root)
+            .collect();
+        for &g in &roots {
             let name = self.globals[g].name.clone();
+            let used = self.globals[g].used;
             match &self.globals[g].kind {
                 GlobalKind::Let(_) => {
                     self.global_value(g, name.span);
+                    // Evaluating for errors is not a use.
+                    self.globals[g].used = used;
                 }
                 GlobalKind::Fn(def) => {
                     let def = def.clone();
                     self.check_fn_signature(self.globals[g].file, &def);
                 }
             }
-            if !used && !name.name.starts_with('_') && !self.aborted {
+        }
+        for &g in &roots {
+            let name = &self.globals[g].name;
+            if !self.globals[g].used && !name.name.starts_with('_') && !self.aborted {
                 let what = if matches!(self.globals[g].kind, GlobalKind::Fn(_)) {
                     "function"
                 } else {

@@ -209,6 +209,9 @@ impl Loader {
         }
         let mut diags = self.diags;
         diags.sort_by_key(|d| d.primary_span().map(|s| (s.file, s.start)));
+        // A function called several times reports the same problem once.
+        let mut seen = std::collections::HashSet::new();
+        diags.retain(|d| seen.insert((d.code, d.message.clone(), d.primary_span())));
         if diags.len() > MAX_DIAGNOSTICS {
             let more = diags.len() - MAX_DIAGNOSTICS;
             diags.truncate(MAX_DIAGNOSTICS);
