@@ -111,7 +111,51 @@ fn check_structure(file: FileId, tokens: &[(Token, SimpleSpan)]) -> Vec<Diagnost
     let mut stack: Vec<(Token, SimpleSpan)> = Vec::new();
     let mut diags = Vec::new();
     let mut prefix_run = 0usize;
-    for (tok, span) in tokens {
+    // Constructs the parser nests without brackets: lambda heads `|a, b|` in a row and
+    // `else if` chains. Each counts as one level.
+    let mut lambda_run = 0usize;
+    let mut else_if_run: Vec<usize> = vec![0];
+    let mut i = 0;
+    while i < tokens.len() {
+        let (tok, span) = &tokens[i];
+        if *tok == Token::Bar {
+            let mut j = i + 1;
+            while matches!(tokens.get(j), Some((Token::Ident(_), _)))
+                && matches!(tokens.get(j + 1), Some((Token::Comma, _)))
+            {
+                j += 2;
+            }
+            if matches!(tokens.get(j), Some((Token::Ident(_), _)))
+                && matches!(tokens.get(j + 1), Some((Token::Bar, _)))
+            {
+                lambda_run += 1;
+                if lambda_run > MAX_NESTING {
+                    return vec![too_deep(sp(span), "this chain of functions")];
+                }
+                i = j + 2;
+                continue;
+            }
+        }
+        lambda_run = 0;
+        if *tok == Token::Else && matches!(tokens.get(i + 1), Some((Token::If, _))) {
+            let run = else_if_run.last_mut().expect("never empty");
+            *run += 1;
+            if *run > MAX_NESTING {
+                return vec![too_deep(sp(span), "this `else if` chain")];
+            }
+        }
+        match tok {
+            // A new binding, setting or list item starts a new chain.
+            Token::Let | Token::Fn | Token::Object | Token::Comma | Token::Semi => {
+                *else_if_run.last_mut().expect("never empty") = 0;
+            }
+            Token::LBrace => else_if_run.push(0),
+            Token::RBrace if else_if_run.len() > 1 => {
+                else_if_run.pop();
+            }
+            _ => {}
+        }
+        i += 1;
         if matches!(tok, Token::Minus | Token::Bang) {
             prefix_run += 1;
             if prefix_run > MAX_NESTING {
