@@ -323,21 +323,19 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                         q.apply(&mut render);
                     }
                 }
-                if let Some((v, span)) = s.get("size") {
-                    if ck.require_const(v, *span, "the image size")
-                        && ck.expect(v, &Type::Size, *span, "the image size")
-                    {
-                        if let Value::Size(w, h) = v {
-                            let ok = |x: f64| x.fract() == 0.0 && (1.0..=16384.0).contains(&x);
-                            if ok(*w) && ok(*h) {
-                                (render.width, render.height) = (*w as u32, *h as u32);
-                            } else {
-                                ck.error(
-                                    Diagnostic::error("E0301", "image size out of range")
-                                        .label(*span, format!("this is {} x {}, but each side must be a whole number from 1 to 16384", Num(*w), Num(*h))),
-                                );
-                            }
-                        }
+                if let Some((v, span)) = s.get("size")
+                    && ck.require_const(v, *span, "the image size")
+                    && ck.expect(v, &Type::Size, *span, "the image size")
+                    && let Value::Size(w, h) = v
+                {
+                    let ok = |x: f64| x.fract() == 0.0 && (1.0..=16384.0).contains(&x);
+                    if ok(*w) && ok(*h) {
+                        (render.width, render.height) = (*w as u32, *h as u32);
+                    } else {
+                        ck.error(Diagnostic::error("E0301", "image size out of range").label(
+                            *span,
+                            format!("this is {} x {}, but each side must be a whole number from 1 to 16384", Num(*w), Num(*h)),
+                        ));
                     }
                 }
                 let u = |ck: &mut Checker, k: &str, lo: f64, hi: f64| {
@@ -436,16 +434,15 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                 let v = super::ops::coerce(ck, v, &Type::Color);
                 if ck.expect(&v, &Type::Color, span, "the sky")
                     && ck.require_const(&v, span, "the sky")
+                    && let Value::Color(c) = v
                 {
-                    if let Value::Color(c) = v {
-                        if c.iter().all(|x| *x >= 0.0) {
-                            sky = c;
-                        } else {
-                            ck.error(
-                                Diagnostic::error("E0301", "the sky cannot be negative")
-                                    .label(span, "a radiance is at least 0"),
-                            );
-                        }
+                    if c.iter().all(|x| *x >= 0.0) {
+                        sky = c;
+                    } else {
+                        ck.error(
+                            Diagnostic::error("E0301", "the sky cannot be negative")
+                                .label(span, "a radiance is at least 0"),
+                        );
                     }
                 }
             }
