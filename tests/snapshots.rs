@@ -1,0 +1,171 @@
+//! Snapshot tests: every file under `tests/in/errors/` renders its diagnostics, every valid scene
+//! under `tests/in/` and `examples/` prints its syntax tree and its checked scene.
+//!
+//! Update with `INSTA_UPDATE=always cargo test --release` (or `cargo insta review`).
+
+use hyperslice::Compilation;
+use std::path::{Path, PathBuf};
+
+/// The path relative to the crate root, with `/` separators, so that file names in diagnostics
+/// and snapshots do not depend on where the repository is checked out. Integration tests run
+/// with the crate root as the working directory, so the relative path opens the same file.
+fn relative(path: &Path) -> PathBuf {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let root = root.canonicalize().unwrap_or_else(|_| root.to_path_buf());
+    let rel = path
+        .strip_prefix(&root)
+        .or_else(|_| path.strip_prefix(env!("CARGO_MANIFEST_DIR")))
+        .unwrap_or_else(|_| panic!("{} is outside the crate", path.display()));
+    PathBuf::from(rel.to_string_lossy().replace('\\', "/"))
+}
+
+fn compile(path: &Path) -> (PathBuf, Compilation) {
+    let rel = relative(path);
+    let c = Compilation::from_path(&rel);
+    (rel, c)
+}
+
+/// Every label of every diagnostic lies inside the text of the file it names.
+fn assert_spans_in_bounds(c: &Compilation, what: &Path) {
+    for d in &c.diagnostics {
+        for l in &d.labels {
+            let len = c.sources.get(l.span.file).text.len();
+            assert!(
+                l.span.start <= l.span.end && (l.span.end as usize) <= len,
+                "{}: [{}] label {}..{} outside its file of {len} bytes",
+                what.display(),
+                d.code,
+                l.span.start,
+                l.span.end
+            );
+            let text = &c.sources.get(l.span.file).text;
+            assert!(
+                text.is_char_boundary(l.span.start as usize)
+                    && text.is_char_boundary(l.span.end as usize),
+                "{}: [{}] label {}..{} splits a character",
+                what.display(),
+                d.code,
+                l.span.start,
+                l.span.end
+            );
+        }
+    }
+}
+
+fn assert_no_absolute_paths(text: &str, what: &Path) {
+    let root = env!("CARGO_MANIFEST_DIR");
+    assert!(
+        !text.contains(root),
+        "{}: output contains the absolute path {root}",
+        what.display()
+    );
+}
+
+#[test]
+fn error_diagnostics() {
+    insta::glob!("in/errors/*.4ds", |path| {
+        let (rel, c) = compile(path);
+        assert!(
+            !c.diagnostics.is_empty(),
+            "{}: expected at least one diagnostic",
+            rel.display()
+        );
+        assert_spans_in_bounds(&c, &rel);
+        let rendered = c.render_diagnostics(false);
+        assert_no_absolute_paths(&rendered, &rel);
+        let codes: Vec<&str> = c.diagnostics.iter().map(|d| d.code).collect();
+        insta::with_settings!({ description => format!("codes: {}", codes.join(" ")), omit_expression => true }, {
+            insta::assert_snapshot!("diagnostics", rendered);
+        });
+    });
+}
+
+/// Valid scenes: no errors, and a stable printed tree and scene.
+fn check_valid(path: &Path, with_ast: bool) {
+    let (rel, c) = compile(path);
+    assert!(
+        !c.has_errors(),
+        "{} should compile without errors:\n{}",
+        rel.display(),
+        c.render_diagnostics(false)
+    );
+    assert_spans_in_bounds(&c, &rel);
+    let scene = c
+        .emit_scene()
+        .unwrap_or_else(|| panic!("{}: no scene despite no errors", rel.display()));
+    assert_no_absolute_paths(&scene, &rel);
+    let warnings = c.render_diagnostics(false);
+    insta::with_settings!({ omit_expression => true }, {
+        if with_ast {
+            insta::assert_snapshot!("ast", c.emit_ast());
+        }
+        insta::assert_snapshot!("scene", scene);
+        if !warnings.is_empty() {
+            insta::assert_snapshot!("warnings", warnings);
+        }
+    });
+}
+
+#[test]
+fn valid_scenes() {
+    insta::glob!("in/*.4ds", |path| check_valid(path, true));
+}
+
+#[test]
+fn examples() {
+    insta::glob!("../examples", "*.4ds", |path| {
+        check_valid_example(path);
+    });
+}
+
+fn check_valid_example(path: &Path) {
+    let (rel, c) = compile(path);
+    assert!(
+        !c.has_errors(),
+        "{} should compile without errors:\n{}",
+        rel.display(),
+        c.render_diagnostics(false)
+    );
+    assert_spans_in_bounds(&c, &rel);
+    let scene = c
+        .emit_scene()
+        .unwrap_or_else(|| panic!("{}: no scene despite no errors", rel.display()));
+    assert_no_absolute_paths(&scene, &rel);
+    insta::with_settings!({ omit_expression => true }, {
+        insta::assert_snapshot!("example_scene", scene);
+    });
+}
+
+/// Every diagnostic code in the language reference is produced by at least one error file.
+#[test]
+fn every_code_is_covered() {
+    let mut seen = std::collections::BTreeSet::new();
+    let dir = Path::new("tests/in/errors");
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "4ds") {
+            for d in Compilation::from_path(&path).diagnostics {
+                seen.insert(d.code);
+            }
+        }
+    }
+    let mut codes: Vec<String> = Vec::new();
+    for (prefix, nums) in [
+        ("E00", &[1, 2, 3, 10, 11, 12][..]),
+        ("E01", &[1, 2, 3, 4, 5]),
+        ("E02", &[1, 2, 3, 4, 5, 6, 7, 8, 9, 10]),
+        ("E03", &[1, 2]),
+        ("E04", &[1, 2, 3]),
+        ("E05", &[1, 2, 3, 4]),
+        ("W00", &[1, 2, 3, 4]),
+    ] {
+        for n in nums {
+            codes.push(format!("{prefix}{n:02}"));
+        }
+    }
+    let missing: Vec<&String> = codes
+        .iter()
+        .filter(|c| !seen.contains(c.as_str()))
+        .collect();
+    assert!(missing.is_empty(), "no error file produces {missing:?}");
+}
