@@ -23,7 +23,13 @@ pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
     for (tok, range) in token::lex(src) {
         let span = Span::new(file, range.start, range.end);
         match tok {
-            Token::Error(e) => diags.push(lex_error(e, span, &src[range])),
+            Token::Error(e) => {
+                diags.push(lex_error(e, span, &src[range.clone()]));
+                // Stand in a number so the parser does not report the same mistake again.
+                if e == LexError::GluedNumber {
+                    tokens.push((Token::Number("0"), SimpleSpan::from(range)));
+                }
+            }
             tok => tokens.push((tok, SimpleSpan::from(range))),
         }
     }
@@ -81,6 +87,26 @@ fn lex_error(e: LexError, span: Span, text: &str) -> Diagnostic {
         LexError::UnterminatedString => Diagnostic::error("E0002", "unterminated string")
             .label(span, "this string has no closing `\"`")
             .help("strings end on the same line with `\"`"),
+        LexError::GluedNumber => {
+            let split = text
+                .find(|c: char| c.is_ascii_alphabetic() || c == '_')
+                .unwrap_or(text.len());
+            let (num, name) = text.split_at(split);
+            let hint = match name.strip_prefix('x') {
+                Some(h) if !h.is_empty() && h.chars().all(|c| c.is_ascii_digit()) => {
+                    format!("an image size is written with spaces around `x`: `{num} x {h}`")
+                }
+                _ => format!(
+                    "put a space or an operator between `{num}` and `{name}`; the angle units are `deg`, `rad` and `turn`"
+                ),
+            };
+            Diagnostic::error(
+                "E0004",
+                format!("the number `{num}` runs into the name `{name}`"),
+            )
+            .label(span, "a number cannot be followed directly by letters")
+            .help(hint)
+        }
         LexError::UnterminatedComment => Diagnostic::error("E0003", "unterminated block comment")
             .label(
                 Span {
@@ -293,16 +319,6 @@ fn one_of_list(items: &[String]) -> String {
 fn parse_hint(found: Option<&Token>, text: &str, expected: &[String]) -> Option<String> {
     let wants = |s: &str| expected.iter().any(|e| e.contains(s));
     match found {
-        Some(Token::Ident(s))
-            if s.starts_with('x')
-                && s[1..].chars().all(|c| c.is_ascii_digit())
-                && !s[1..].is_empty() =>
-        {
-            Some(format!(
-                "an image size is written with spaces around `x`: `... x {}`",
-                &s[1..]
-            ))
-        }
         Some(Token::Eq) if wants("`:`") || wants("`)`") => Some(
             "named arguments are written `name: value`, as in `hypersphere(radius: 1)`".to_string(),
         ),

@@ -10,6 +10,8 @@ pub enum LexError {
     BadChar,
     UnterminatedString,
     UnterminatedComment,
+    /// A number running straight into a name, such as `512x384` or `3px`.
+    GluedNumber,
 }
 
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -23,10 +25,11 @@ pub enum Token<'src> {
 
     #[regex(r"/\*([^*]|\*+[^*/])*\**", callback = unterminated_comment, priority = 1)]
     #[regex(r#""([^"\\\n]|\\.)*"#, callback = unterminated_string, priority = 1, allow_greedy = true)]
+    #[regex(r"[0-9]+(\.[0-9]+)?[A-Za-z_][A-Za-z0-9_]*", callback = glued_number, priority = 1)]
     Unused,
 
     /// A number, possibly with an angle unit suffix (`15deg`, `0.25turn`, `1.2rad`).
-    #[regex(r"[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]+)?(deg|rad|turn)?")]
+    #[regex(r"[0-9]+(\.[0-9]+)?([eE][+-]?[0-9]+)?(deg|rad|turn)?", priority = 10)]
     Number(&'src str),
     /// A hex colour `#rrggbb`.
     #[regex(r"#[0-9a-fA-F]{6}")]
@@ -131,6 +134,10 @@ fn unterminated_comment<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), L
     Err(LexError::UnterminatedComment)
 }
 
+fn glued_number<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), LexError> {
+    Err(LexError::GluedNumber)
+}
+
 fn unterminated_string<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), LexError> {
     Err(LexError::UnterminatedString)
 }
@@ -230,6 +237,15 @@ mod tests {
         let toks: Vec<_> = lex("a $ \"open").into_iter().map(|t| t.0).collect();
         assert_eq!(toks[1], Token::Error(LexError::BadChar));
         assert_eq!(toks[2], Token::Error(LexError::UnterminatedString));
+        let toks: Vec<_> = lex("512x384 15deg 2e3").into_iter().map(|t| t.0).collect();
+        assert_eq!(
+            toks,
+            vec![
+                Token::Error(LexError::GluedNumber),
+                Token::Number("15deg"),
+                Token::Number("2e3")
+            ]
+        );
         let toks: Vec<_> = lex("/* never closed").into_iter().map(|t| t.0).collect();
         assert_eq!(toks, vec![Token::Error(LexError::UnterminatedComment)]);
     }
