@@ -393,8 +393,13 @@ pub fn index(ck: &mut Checker, list: Value, idx: Value, lspan: Span, ispan: Span
                 } else {
                     format!("is outside 0..{}", items.len())
                 };
+                let title = if i.fract() != 0.0 {
+                    "index is not a whole number"
+                } else {
+                    "index out of range"
+                };
                 return ck.error(
-                    Diagnostic::error("E0209", "index out of range")
+                    Diagnostic::error("E0209", title)
                         .label(ispan, format!("the index {} {why}", Num(i)))
                         .label(
                             lspan,
