@@ -6,6 +6,9 @@ pub mod check;
 pub mod diagnostic;
 pub mod source;
 pub mod syntax;
+pub mod ir;
+pub mod vm;
+pub mod render;
 
 use diagnostic::Diagnostic;
 use source::SourceMap;
@@ -47,5 +50,20 @@ impl Compilation {
     /// `--emit scene`: the typed, constant-evaluated scene, if it compiled.
     pub fn emit_scene(&self) -> Option<String> {
         self.scene.as_ref().map(|s| s.to_string())
+    }
+
+    /// `--emit ir`: the optimised SDF IR, with `t` left free.
+    pub fn emit_ir(&self) -> Option<String> {
+        self.program().map(|p| p.ir.to_string())
+    }
+
+    /// `--emit bytecode`: every tape of the scene.
+    pub fn emit_bytecode(&self) -> Option<String> {
+        self.program().map(|p| p.to_string())
+    }
+
+    /// The compiled VM program, if the scene compiled.
+    pub fn program(&self) -> Option<vm::Program> {
+        self.scene.as_ref().map(|s| vm::Program::new(s, None))
     }
 }

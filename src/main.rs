@@ -49,6 +49,10 @@ enum Emit {
     Ast,
     /// The typed, constant-evaluated scene.
     Scene,
+    /// The optimised SDF IR.
+    Ir,
+    /// The bytecode tapes.
+    Bytecode,
 }
 
 fn main() -> ExitCode {
@@ -99,11 +103,9 @@ fn main() -> ExitCode {
             eprint!("{}", c.render_diagnostics(color));
             match emit {
                 Emit::Ast => print!("{}", c.emit_ast()),
-                Emit::Scene => {
-                    if let Some(s) = c.emit_scene() {
-                        print!("{s}");
-                    }
-                }
+                Emit::Scene => print!("{}", c.emit_scene().unwrap_or_default()),
+                Emit::Ir => print!("{}", c.emit_ir().unwrap_or_default()),
+                Emit::Bytecode => print!("{}", c.emit_bytecode().unwrap_or_default()),
             }
             if c.has_errors() {
                 ExitCode::FAILURE

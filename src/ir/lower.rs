@@ -1,0 +1,787 @@
+//! Lowering: the typed scene's shapes, custom distances and material maps become nodes of one
+//! graph. Nothing is optimised here beyond interning; `opt` does that, so the plain lowered
+//! graph is the reference the optimised bytecode is tested against.
+
+use super::{Bin, Graph, Id, K, Node, Un, Var};
+use crate::check::Scene;
+use crate::check::value::{
+    FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn, Plane, Shape,
+    ShapeKind, Value,
+};
+use crate::syntax::ast::{BinOp, UnOp};
+use std::collections::HashMap;
+
+/// The lowered scene: one graph, with roots for each object and for the whole scene.
+#[derive(Clone, Debug)]
+pub struct SceneIr {
+    pub graph: Graph,
+    pub objects: Vec<ObjectIr>,
+    /// The distance to the nearest visible object, and that object's index.
+    pub distance: Id,
+    pub nearest: Id,
+    /// The camera orientation: plane rotations whose angles may depend on `t`.
+    pub look: Vec<(Plane, Id)>,
+}
+
+#[derive(Clone, Debug)]
+pub struct ObjectIr {
+    pub name: String,
+    pub distance: Id,
+    pub material: MaterialIr,
+}
+
+/// A material map: `selector` picks one of `leaves` (as 0, 1, ...) at a hit point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MaterialIr {
+    pub selector: Id,
+    pub leaves: Vec<Leaf>,
+}
+
+/// One material of a map, with each parameter as 1 node (numbers) or 3 (colours).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Leaf {
+    pub kind: MaterialKind,
+    pub params: Vec<(&'static str, Vec<Id>)>,
+}
+
+impl MaterialIr {
+    /// Every node a material map reads, for liveness and tape outputs.
+    pub fn roots(&self) -> Vec<Id> {
+        let mut out = vec![self.selector];
+        for l in &self.leaves {
+            for (_, ids) in &l.params {
+                out.extend(ids);
+            }
+        }
+        out
+    }
+
+    /// The same map with every node renamed.
+    pub fn map(&self, f: &mut impl FnMut(Id) -> Id) -> MaterialIr {
+        MaterialIr {
+            selector: f(self.selector),
+            leaves: self
+                .leaves
+                .iter()
+                .map(|l| Leaf {
+                    kind: l.kind,
+                    params: l
+                        .params
+                        .iter()
+                        .map(|(n, ids)| (*n, ids.iter().map(|i| f(*i)).collect()))
+                        .collect(),
+                })
+                .collect(),
+        }
+    }
+
+    /// Whether this is plain `air` everywhere.
+    pub fn is_air(&self) -> bool {
+        self.leaves.iter().all(|l| l.kind == MaterialKind::Air)
+    }
+}
+
+impl SceneIr {
+    /// Every root of the scene, in a fixed order: scene distance, nearest, then per object its
+    /// distance and material nodes, then the camera angles.
+    pub fn roots(&self) -> Vec<Id> {
+        let mut out = vec![self.distance, self.nearest];
+        for o in &self.objects {
+            out.push(o.distance);
+            out.extend(o.material.roots());
+        }
+        out.extend(self.look.iter().map(|(_, a)| *a));
+        out
+    }
+
+    /// The same scene over a new graph, with every root renamed by `f`.
+    pub fn remap(&self, graph: Graph, f: &mut impl FnMut(Id) -> Id) -> SceneIr {
+        SceneIr {
+            distance: f(self.distance),
+            nearest: f(self.nearest),
+            objects: self
+                .objects
+                .iter()
+                .map(|o| ObjectIr {
+                    name: o.name.clone(),
+                    distance: f(o.distance),
+                    material: o.material.map(f),
+                })
+                .collect(),
+            look: self.look.iter().map(|(p, a)| (*p, f(*a))).collect(),
+            graph,
+        }
+    }
+}
+
+/// A lowered value: a scalar (numbers, angles and booleans as 1/0), a vector, a colour or a
+/// material map.
+#[derive(Clone, Debug)]
+enum Lv {
+    S(Id),
+    V([Id; 4]),
+    C([Id; 3]),
+    M(MaterialIr),
+}
+
+impl Lv {
+    fn lanes(&self) -> Vec<Id> {
+        match self {
+            Lv::S(a) => vec![*a],
+            Lv::V(v) => v.to_vec(),
+            Lv::C(c) => c.to_vec(),
+            Lv::M(m) => vec![m.selector],
+        }
+    }
+
+    /// The same shape of value with other lanes.
+    fn with(&self, ids: Vec<Id>) -> Lv {
+        match self {
+            Lv::S(_) => Lv::S(ids[0]),
+            Lv::V(_) => Lv::V([ids[0], ids[1], ids[2], ids[3]]),
+            Lv::C(_) => Lv::C([ids[0], ids[1], ids[2]]),
+            Lv::M(_) => unreachable!("materials are combined by `choose`"),
+        }
+    }
+}
+
+/// What `p` and `n` stand for while lowering a field.
+#[derive(Clone, Copy)]
+struct Env {
+    p: [Id; 4],
+    n: [Id; 4],
+}
+
+struct Lower<'a> {
+    g: Graph,
+    fields: &'a Fields,
+    memo: HashMap<(FieldId, [Id; 4]), Lv>,
+}
+
+/// Lower a checked scene.
+pub fn lower(scene: &Scene) -> SceneIr {
+    let mut l = Lower {
+        g: Graph::new(),
+        fields: &scene.fields,
+        memo: HashMap::new(),
+    };
+    let p = Var::POINT.map(|v| l.g.intern(Node::Var(v)));
+    let n = Var::NORMAL.map(|v| l.g.intern(Node::Var(v)));
+    let env = Env { p, n };
+    let mut objects = vec![];
+    for o in &scene.objects {
+        let distance = l.shape(&o.shape, p);
+        let material = match l.value(&o.material, env) {
+            Lv::M(m) => m,
+            _ => unreachable!("the checker gives every object a material"),
+        };
+        objects.push(ObjectIr {
+            name: o.name.clone(),
+            distance,
+            material,
+        });
+    }
+    let (mut distance, mut nearest) = (l.k(f64::INFINITY), l.k(-1.0));
+    for (i, o) in objects.iter().enumerate() {
+        if o.material.is_air() {
+            continue;
+        }
+        let t = l.g.intern(Node::MinId(distance, nearest, o.distance, K::new(i as f64)));
+        distance = l.g.intern(Node::Proj(t, 0));
+        nearest = l.g.intern(Node::Proj(t, 1));
+    }
+    let look = scene
+        .camera
+        .look
+        .iter()
+        .map(|(plane, a)| (*plane, l.scalar(a, env)))
+        .collect();
+    SceneIr {
+        graph: l.g,
+        objects,
+        distance,
+        nearest,
+        look,
+    }
+}
+
+impl Lower<'_> {
+    fn k(&mut self, x: f64) -> Id {
+        self.g.intern(Node::Const(K::new(x)))
+    }
+    fn un(&mut self, op: Un, a: Id) -> Id {
+        self.g.intern(Node::Un(op, a))
+    }
+    fn bin(&mut self, op: Bin, a: Id, b: Id) -> Id {
+        self.g.intern(Node::Bin(op, a, b))
+    }
+    fn t(&mut self) -> Id {
+        self.g.intern(Node::Var(Var::T))
+    }
+
+    fn scalar(&mut self, v: &Value, env: Env) -> Id {
+        match self.value(v, env) {
+            Lv::S(a) => a,
+            other => other.lanes()[0],
+        }
+    }
+
+    fn vector(&mut self, v: &Value, env: Env) -> [Id; 4] {
+        match self.value(v, env) {
+            Lv::V(v) => v,
+            Lv::S(a) => [a; 4],
+            other => unreachable!("checked as a vector: {other:?}"),
+        }
+    }
+
+    fn value(&mut self, v: &Value, env: Env) -> Lv {
+        match v {
+            Value::Num(x) | Value::Angle(x) => Lv::S(self.k(*x)),
+            Value::Bool(b) => Lv::S(self.k(if *b { 1.0 } else { 0.0 })),
+            Value::Vec4(v) => Lv::V(v.map(|x| self.k(x))),
+            Value::Color(c) => Lv::C(c.map(|x| self.k(x))),
+            Value::Material(m) => Lv::M(self.material(m, env)),
+            Value::Field(id, _) => self.field(*id, env),
+            other => unreachable!("not a run-time value: {other:?}"),
+        }
+    }
+
+    fn material(&mut self, m: &Material, env: Env) -> MaterialIr {
+        let params = m
+            .params
+            .iter()
+            .map(|(name, v)| (*name, self.value(v, env).lanes()))
+            .collect();
+        MaterialIr {
+            selector: self.k(0.0),
+            leaves: vec![Leaf {
+                kind: m.kind,
+                params,
+            }],
+        }
+    }
+
+    fn field(&mut self, id: FieldId, env: Env) -> Lv {
+        if let Some(v) = self.memo.get(&(id, env.p)) {
+            return v.clone();
+        }
+        let node = self.fields.get(id);
+        let v = match &node.op {
+            FieldOp::Input(Input::P) => Lv::V(env.p),
+            FieldOp::Input(Input::N) => Lv::V(env.n),
+            FieldOp::Input(Input::T) => Lv::S(self.t()),
+            FieldOp::Const(v) => self.value(v, env),
+            FieldOp::Unary(op, a) => {
+                let a = self.field(*a, env);
+                let op = match op {
+                    UnOp::Neg => Un::Neg,
+                    UnOp::Not => Un::Not,
+                };
+                let ids = a.lanes().iter().map(|x| self.un(op, *x)).collect();
+                a.with(ids)
+            }
+            FieldOp::Binary(op, a, b) => {
+                let (a, b) = (self.field(*a, env), self.field(*b, env));
+                self.binary(*op, a, b)
+            }
+            FieldOp::Math(f, args) => {
+                let args: Vec<Lv> = args.iter().map(|a| self.field(*a, env)).collect();
+                self.math(*f, args)
+            }
+            FieldOp::Component(a, i) => Lv::S(self.field(*a, env).lanes()[*i as usize]),
+            FieldOp::MakeVec4(xs) => Lv::V(xs.map(|x| self.field(x, env).lanes()[0])),
+            FieldOp::MakeColor(xs) => Lv::C(xs.map(|x| self.field(x, env).lanes()[0])),
+            FieldOp::Select(c, a, b) => {
+                let c = self.field(*c, env).lanes()[0];
+                let (a, b) = (self.field(*a, env), self.field(*b, env));
+                self.choose(c, b, a)
+            }
+            FieldOp::Index(items, i) => {
+                // The index rounds down and is clamped to the list.
+                let i = self.field(*i, env).lanes()[0];
+                let i = self.un(Un::Floor, i);
+                let mut out = self.field(items[0], env);
+                for (k, item) in items.iter().enumerate().skip(1) {
+                    let kk = self.k(k as f64);
+                    let c = self.bin(Bin::Le, kk, i);
+                    let item = self.field(*item, env);
+                    out = self.choose(c, out, item);
+                }
+                out
+            }
+            FieldOp::Cell(lat, p) => {
+                let p = self.field(*p, env).lanes();
+                Lv::V(self.cell(lat, [p[0], p[1], p[2], p[3]]).1)
+            }
+        };
+        self.memo.insert((id, env.p), v.clone());
+        v
+    }
+
+    /// `if c { yes } else { no }` on any value; materials merge their leaves.
+    fn choose(&mut self, c: Id, no: Lv, yes: Lv) -> Lv {
+        match (no, yes) {
+            (Lv::M(no), Lv::M(yes)) => {
+                let offset = self.k(no.leaves.len() as f64);
+                let shifted = self.bin(Bin::Add, yes.selector, offset);
+                let selector = self.g.intern(Node::Select(c, shifted, no.selector));
+                let mut leaves = no.leaves;
+                leaves.extend(yes.leaves);
+                Lv::M(MaterialIr { selector, leaves })
+            }
+            (no, yes) => {
+                let ids = (no.lanes().iter().zip(yes.lanes()))
+                    .map(|(n, y)| self.g.intern(Node::Select(c, y, *n)))
+                    .collect();
+                no.with(ids)
+            }
+        }
+    }
+
+    /// Lanes of `a op b`, broadcasting a scalar against a vector or colour.
+    fn zip(&mut self, op: Bin, a: &Lv, b: &Lv) -> Lv {
+        let (la, lb) = (a.lanes(), b.lanes());
+        let n = la.len().max(lb.len());
+        let get = |l: &[Id], i: usize| if l.len() == 1 { l[0] } else { l[i] };
+        let ids = (0..n)
+            .map(|i| self.bin(op, get(&la, i), get(&lb, i)))
+            .collect();
+        if la.len() >= lb.len() {
+            a.with(ids)
+        } else {
+            b.with(ids)
+        }
+    }
+
+    fn binary(&mut self, op: BinOp, a: Lv, b: Lv) -> Lv {
+        let reduce = |l: &mut Self, op: Bin, ids: Vec<Id>| {
+            ids.into_iter()
+                .reduce(|x, y| l.bin(op, x, y))
+                .expect("a value has lanes")
+        };
+        match op {
+            BinOp::Add => self.zip(Bin::Add, &a, &b),
+            BinOp::Sub => self.zip(Bin::Sub, &a, &b),
+            BinOp::Mul => self.zip(Bin::Mul, &a, &b),
+            BinOp::Div => self.zip(Bin::Div, &a, &b),
+            BinOp::Mod => self.zip(Bin::Mod, &a, &b),
+            BinOp::Lt => self.zip(Bin::Lt, &a, &b),
+            BinOp::Le => self.zip(Bin::Le, &a, &b),
+            BinOp::Gt => self.zip(Bin::Lt, &b, &a),
+            BinOp::Ge => self.zip(Bin::Le, &b, &a),
+            BinOp::And => self.zip(Bin::And, &a, &b),
+            BinOp::Or => self.zip(Bin::Or, &a, &b),
+            BinOp::Eq => {
+                let eq = self.zip(Bin::Eq, &a, &b).lanes();
+                Lv::S(reduce(self, Bin::And, eq))
+            }
+            BinOp::Ne => {
+                let ne = self.zip(Bin::Ne, &a, &b).lanes();
+                Lv::S(reduce(self, Bin::Or, ne))
+            }
+            BinOp::Range | BinOp::Dims => unreachable!("not a field operation"),
+        }
+    }
+
+    fn math(&mut self, f: MathFn, args: Vec<Lv>) -> Lv {
+        let map = |l: &mut Self, op: Un, a: &Lv| {
+            let ids = a.lanes().iter().map(|x| l.un(op, *x)).collect();
+            a.with(ids)
+        };
+        let a = &args[0];
+        match f {
+            MathFn::Sin => map(self, Un::Sin, a),
+            MathFn::Cos => map(self, Un::Cos, a),
+            MathFn::Tan => map(self, Un::Tan, a),
+            MathFn::Asin => map(self, Un::Asin, a),
+            MathFn::Acos => map(self, Un::Acos, a),
+            MathFn::Atan => map(self, Un::Atan, a),
+            MathFn::Sqrt => map(self, Un::Sqrt, a),
+            MathFn::Exp => map(self, Un::Exp, a),
+            MathFn::Log => map(self, Un::Ln, a),
+            MathFn::Abs => map(self, Un::Abs, a),
+            MathFn::Floor => map(self, Un::Floor, a),
+            MathFn::Ceil => map(self, Un::Ceil, a),
+            MathFn::Round => map(self, Un::Round, a),
+            MathFn::Fract => map(self, Un::Fract, a),
+            MathFn::Sign => map(self, Un::Sign, a),
+            MathFn::Atan2 => self.zip(Bin::Atan2, a, &args[1]),
+            MathFn::Pow => self.zip(Bin::Pow, a, &args[1]),
+            MathFn::Min => self.zip(Bin::Min, a, &args[1]),
+            MathFn::Max => self.zip(Bin::Max, a, &args[1]),
+            MathFn::Clamp => {
+                let lo = self.zip(Bin::Max, a, &args[1]);
+                self.zip(Bin::Min, &lo, &args[2])
+            }
+            MathFn::Mix => {
+                let d = self.zip(Bin::Sub, &args[1], a);
+                let d = self.zip(Bin::Mul, &d, &args[2]);
+                self.zip(Bin::Add, a, &d)
+            }
+            MathFn::Length => Lv::S(self.length(a)),
+            MathFn::Dot => {
+                let p = self.zip(Bin::Mul, a, &args[1]).lanes();
+                Lv::S(self.sum(&p))
+            }
+            MathFn::Normalize => {
+                let len = Lv::S(self.length(a));
+                self.zip(Bin::Div, a, &len)
+            }
+        }
+    }
+
+    fn length(&mut self, a: &Lv) -> Id {
+        let mut l = a.lanes();
+        let zero = self.k(0.0);
+        l.resize(4, zero);
+        self.g.intern(Node::Length([l[0], l[1], l[2], l[3]]))
+    }
+
+    fn sum(&mut self, xs: &[Id]) -> Id {
+        let mut acc = xs[0];
+        for x in &xs[1..] {
+            acc = self.bin(Bin::Add, acc, *x);
+        }
+        acc
+    }
+
+    /// A point mapped by `m * p + b` (each row one `Affine` node).
+    fn affine(&mut self, p: [Id; 4], m: [[f64; 4]; 4], b: [f64; 4]) -> [Id; 4] {
+        std::array::from_fn(|i| {
+            let row = [m[i][0], m[i][1], m[i][2], m[i][3], b[i]].map(K::new);
+            self.g.intern(Node::Affine(p, row))
+        })
+    }
+
+    fn diag(&mut self, p: [Id; 4], s: [f64; 4]) -> [Id; 4] {
+        let mut m = [[0.0; 4]; 4];
+        for i in 0..4 {
+            m[i][i] = s[i];
+        }
+        self.affine(p, m, [0.0; 4])
+    }
+
+    /// The offset of `p` from its lattice point (in world units) and the lattice cell.
+    fn cell(&mut self, lat: &Lattice, p: [Id; 4]) -> ([Id; 4], [Id; 4]) {
+        match lat {
+            Lattice::D4 { scale } => {
+                let q = self.diag(p, [1.0 / scale; 4]);
+                let t = self.g.intern(Node::D4(q));
+                let local = std::array::from_fn(|i| self.g.intern(Node::Proj(t, i as u8)));
+                let cell = std::array::from_fn(|i| self.g.intern(Node::Proj(t, 4 + i as u8)));
+                (self.diag(local, [*scale; 4]), cell)
+            }
+            Lattice::Grid { spacing, limit } => {
+                let q = self.diag(p, spacing.map(|s| 1.0 / s));
+                let mut local = [q[0]; 4];
+                let mut cell = [q[0]; 4];
+                for i in 0..4 {
+                    let t = self.g.intern(Node::Rep(q[i], K::new(limit[i])));
+                    local[i] = self.g.intern(Node::Proj(t, 0));
+                    cell[i] = self.g.intern(Node::Proj(t, 1));
+                }
+                (self.diag(local, *spacing), cell)
+            }
+        }
+    }
+
+    fn param(&mut self, s: &Shape, name: &str, env: Env) -> Id {
+        let v = s.param(name).expect("the checker fills every parameter");
+        self.scalar(v, env)
+    }
+
+    fn const_param(s: &Shape, name: &str) -> Option<f64> {
+        match s.param(name) {
+            Some(Value::Num(x)) => Some(*x),
+            _ => None,
+        }
+    }
+
+    /// The distance to shape `s` at point `p`.
+    fn shape(&mut self, s: &Shape, p: [Id; 4]) -> Id {
+        // Shape parameters depend on `t` only; `p` and `n` are never read from them.
+        let env = Env { p, n: p };
+        let zero = self.k(0.0);
+        match s.kind {
+            ShapeKind::Hypersphere => {
+                let len = self.g.intern(Node::Length(p));
+                let r = self.param(s, "radius", env);
+                self.bin(Bin::Sub, len, r)
+            }
+            ShapeKind::Halfspace => match (s.param("normal"), Self::const_param(s, "offset")) {
+                (Some(Value::Vec4(n)), Some(o)) => {
+                    let row = [n[0], n[1], n[2], n[3], -o].map(K::new);
+                    self.g.intern(Node::Affine(p, row))
+                }
+                _ => {
+                    let n = self.vector(s.param("normal").expect("normal"), env);
+                    let len = self.length(&Lv::V(n));
+                    let d = self.zip(Bin::Mul, &Lv::V(p), &Lv::V(n)).lanes();
+                    let d = self.sum(&d);
+                    let d = self.bin(Bin::Div, d, len);
+                    let o = self.param(s, "offset", env);
+                    self.bin(Bin::Sub, d, o)
+                }
+            },
+            ShapeKind::Hyperbox => {
+                // `radius` rounds the edges inside the same extents: box(half - r) - r.
+                let r = self.param(s, "radius", env);
+                match (s.param("half"), Self::const_param(s, "radius")) {
+                    (Some(Value::Vec4(h)), Some(rc)) => {
+                        let h = h.map(|x| K::new((x - rc).max(0.0)));
+                        let d = self.g.intern(Node::BoxDist(p, h));
+                        self.bin(Bin::Sub, d, r)
+                    }
+                    _ => {
+                        let h = self.vector(s.param("half").expect("half"), env);
+                        let ds: Vec<Id> = (0..4)
+                            .map(|i| {
+                                let a = self.un(Un::Abs, p[i]);
+                                let hr = self.bin(Bin::Sub, h[i], r);
+                                let hr = self.bin(Bin::Max, hr, zero);
+                                self.bin(Bin::Sub, a, hr)
+                            })
+                            .collect();
+                        let d = self.extrusion(&ds);
+                        self.bin(Bin::Sub, d, r)
+                    }
+                }
+            }
+            ShapeKind::Spherinder => {
+                let r = self.param(s, "radius", env);
+                let h = self.param(s, "height", env);
+                let len = self.length(&Lv::V([p[0], p[1], p[2], zero]));
+                let a = self.bin(Bin::Sub, len, r);
+                let w = self.un(Un::Abs, p[3]);
+                let b = self.bin(Bin::Sub, w, h);
+                self.extrusion(&[a, b])
+            }
+            ShapeKind::Cubinder => {
+                let r = self.param(s, "radius", env);
+                let h = self.param(s, "height", env);
+                let len = self.length(&Lv::V([p[0], p[1], zero, zero]));
+                let a = self.bin(Bin::Sub, len, r);
+                let z = self.un(Un::Abs, p[2]);
+                let b = self.bin(Bin::Sub, z, h);
+                let w = self.un(Un::Abs, p[3]);
+                let c = self.bin(Bin::Sub, w, h);
+                self.extrusion(&[a, b, c])
+            }
+            ShapeKind::Duocylinder => {
+                let r1 = self.param(s, "radius1", env);
+                let r2 = self.param(s, "radius2", env);
+                let l1 = self.length(&Lv::V([p[0], p[1], zero, zero]));
+                let l2 = self.length(&Lv::V([p[2], p[3], zero, zero]));
+                let a = self.bin(Bin::Sub, l1, r1);
+                let b = self.bin(Bin::Sub, l2, r2);
+                self.extrusion(&[a, b])
+            }
+            ShapeKind::Cell5 | ShapeKind::Cell16 | ShapeKind::Cell24 => {
+                let r = self.param(s, "radius", env);
+                self.polytope(s.kind, p, r)
+            }
+            ShapeKind::Custom => {
+                let d = s.param("distance").expect("an sdf has a distance");
+                self.scalar(d, Env { p, n: p })
+            }
+            ShapeKind::Union | ShapeKind::Intersect => {
+                let ds: Vec<Id> = s.children.iter().map(|c| self.shape(c, p)).collect();
+                let k = self.param(s, "smooth", env);
+                let union = s.kind == ShapeKind::Union;
+                ds.into_iter()
+                    .reduce(|a, b| self.combine(union, a, b, k))
+                    .expect("at least one shape")
+            }
+            ShapeKind::Subtract => {
+                let a = self.shape(&s.children[0], p);
+                let b = self.shape(&s.children[1], p);
+                let nb = self.un(Un::Neg, b);
+                let k = self.param(s, "smooth", env);
+                self.combine(false, a, nb, k)
+            }
+            ShapeKind::Onion => {
+                let d = self.shape(&s.children[0], p);
+                let a = self.un(Un::Abs, d);
+                let th = self.param(s, "thickness", env);
+                let half = self.k(0.5);
+                let h = self.bin(Bin::Mul, th, half);
+                self.bin(Bin::Sub, a, h)
+            }
+            ShapeKind::Round => {
+                let d = self.shape(&s.children[0], p);
+                let r = self.param(s, "radius", env);
+                self.bin(Bin::Sub, d, r)
+            }
+            ShapeKind::Translate => {
+                let local = match s.param("offset") {
+                    Some(Value::Vec4(o)) => {
+                        let id = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+                        self.affine(p, id, o.map(|x| -x))
+                    }
+                    _ => {
+                        let o = self.vector(s.param("offset").expect("offset"), env);
+                        std::array::from_fn(|i| self.bin(Bin::Sub, p[i], o[i]))
+                    }
+                };
+                self.shape(&s.children[0], local)
+            }
+            ShapeKind::Rotate => {
+                let Some(Value::Rotation(steps)) = s.param("rotation") else {
+                    unreachable!("a rotation")
+                };
+                // The shape turned by r1 then r2 is seen at R1^-1 R2^-1 p: undo the last first.
+                let mut q = p;
+                for (plane, angle) in steps.iter().rev() {
+                    q = match angle {
+                        Value::Angle(a) | Value::Num(a) => {
+                            let m = rotation(*plane, -a);
+                            self.affine(q, m, [0.0; 4])
+                        }
+                        v => {
+                            let a = self.scalar(v, env);
+                            let (c, sn) = (self.un(Un::Cos, a), self.un(Un::Sin, a));
+                            let (i, j) = plane.axes();
+                            let mut out = q;
+                            let (ci, sj) = (self.bin(Bin::Mul, c, q[i]), self.bin(Bin::Mul, sn, q[j]));
+                            out[i] = self.bin(Bin::Add, ci, sj);
+                            let (cj, si) = (self.bin(Bin::Mul, c, q[j]), self.bin(Bin::Mul, sn, q[i]));
+                            out[j] = self.bin(Bin::Sub, cj, si);
+                            out
+                        }
+                    };
+                }
+                self.shape(&s.children[0], q)
+            }
+            ShapeKind::Scale => {
+                let k = self.param(s, "factor", env);
+                let local = match Self::const_param(s, "factor") {
+                    Some(f) => self.diag(p, [1.0 / f; 4]),
+                    None => std::array::from_fn(|i| self.bin(Bin::Div, p[i], k)),
+                };
+                let d = self.shape(&s.children[0], local);
+                self.bin(Bin::Mul, d, k)
+            }
+            ShapeKind::Symmetry => {
+                // Reflect the half with dot(p, n) < 0 onto the other: p - 2 min(dot(p, n), 0) n.
+                let n = self.vector(s.param("normal").expect("normal"), env);
+                let len = self.length(&Lv::V(n));
+                let n: [Id; 4] = std::array::from_fn(|i| self.bin(Bin::Div, n[i], len));
+                let d = self.zip(Bin::Mul, &Lv::V(p), &Lv::V(n)).lanes();
+                let d = self.sum(&d);
+                let d = self.bin(Bin::Min, d, zero);
+                let two = self.k(2.0);
+                let d2 = self.bin(Bin::Mul, d, two);
+                let q = std::array::from_fn(|i| {
+                    let m = self.bin(Bin::Mul, d2, n[i]);
+                    self.bin(Bin::Sub, p[i], m)
+                });
+                self.shape(&s.children[0], q)
+            }
+            ShapeKind::Tile => {
+                let Some(Value::Lattice(lat)) = s.param("lattice") else {
+                    unreachable!("a lattice")
+                };
+                let (local, _) = self.cell(lat, p);
+                self.shape(&s.children[0], local)
+            }
+        }
+    }
+
+    /// min / max, smooth when `k` may be positive.
+    fn combine(&mut self, union: bool, a: Id, b: Id, k: Id) -> Id {
+        match (self.g.constant(k), union) {
+            (Some(k), true) if k <= 0.0 => self.bin(Bin::Min, a, b),
+            (Some(k), false) if k <= 0.0 => self.bin(Bin::Max, a, b),
+            (_, true) => self.g.intern(Node::SMin(a, b, k)),
+            (_, false) => self.g.intern(Node::SMax(a, b, k)),
+        }
+    }
+
+    /// The exact distance to a product of shapes given each factor's distance:
+    /// |max(d, 0)| + min(max_i d_i, 0).
+    fn extrusion(&mut self, ds: &[Id]) -> Id {
+        let zero = self.k(0.0);
+        let mut pos = [zero; 4];
+        for (i, d) in ds.iter().enumerate() {
+            pos[i] = self.bin(Bin::Max, *d, zero);
+        }
+        let out = self.g.intern(Node::Length(pos));
+        let m = ds[1..].iter().fold(ds[0], |m, d| self.bin(Bin::Max, m, *d));
+        let inside = self.bin(Bin::Min, m, zero);
+        self.bin(Bin::Add, out, inside)
+    }
+
+    /// Regular polytopes of circumradius `r` as the largest signed distance to their facet
+    /// hyperplanes: a distance bound, exact on the facets.
+    fn polytope(&mut self, kind: ShapeKind, p: [Id; 4], r: Id) -> Id {
+        let a = p.map(|x| self.un(Un::Abs, x));
+        match kind {
+            ShapeKind::Cell16 => {
+                // Facets x . (+-1/2, ...) = r/2.
+                let row = [0.5, 0.5, 0.5, 0.5, 0.0].map(K::new);
+                let d = self.g.intern(Node::Affine(a, row));
+                let half = self.k(0.5);
+                let h = self.bin(Bin::Mul, r, half);
+                self.bin(Bin::Sub, d, h)
+            }
+            ShapeKind::Cell24 => {
+                // Facet normals: the 8 axes and the 16 (+-1/2, ...); inradius r / sqrt(2).
+                let row = [0.5, 0.5, 0.5, 0.5, 0.0].map(K::new);
+                let s = self.g.intern(Node::Affine(a, row));
+                let m01 = self.bin(Bin::Max, a[0], a[1]);
+                let m23 = self.bin(Bin::Max, a[2], a[3]);
+                let m = self.bin(Bin::Max, m01, m23);
+                let d = self.bin(Bin::Max, m, s);
+                let f = self.k(std::f64::consts::FRAC_1_SQRT_2);
+                let ir = self.bin(Bin::Mul, r, f);
+                self.bin(Bin::Sub, d, ir)
+            }
+            _ => {
+                // The 5-cell: facet normals point away from the five vertices; inradius r / 4.
+                let ds: Vec<Id> = simplex_vertices()
+                    .iter()
+                    .map(|v| {
+                        let row = [-v[0], -v[1], -v[2], -v[3], 0.0].map(K::new);
+                        self.g.intern(Node::Affine(p, row))
+                    })
+                    .collect();
+                let d = ds[1..].iter().fold(ds[0], |m, d| self.bin(Bin::Max, m, *d));
+                let q = self.k(0.25);
+                let ir = self.bin(Bin::Mul, r, q);
+                self.bin(Bin::Sub, d, ir)
+            }
+        }
+    }
+}
+
+/// The matrix turning by `angle` in `plane`, from its first axis towards its second.
+pub fn rotation(plane: Plane, angle: f64) -> [[f64; 4]; 4] {
+    let (i, j) = plane.axes();
+    let mut m = [[0.0; 4]; 4];
+    for (k, row) in m.iter_mut().enumerate() {
+        row[k] = 1.0;
+    }
+    let (s, c) = angle.sin_cos();
+    m[i][i] = c;
+    m[i][j] = -s;
+    m[j][i] = s;
+    m[j][j] = c;
+    m
+}
+
+/// Unit vertices of a regular 4-simplex centred on the origin.
+pub fn simplex_vertices() -> [[f64; 4]; 5] {
+    // e_i - centroid in R^5, expressed in an orthonormal basis of the hyperplane sum = 0.
+    let s5 = 5f64.sqrt();
+    let raw = [
+        [1.0, 1.0, 1.0, -1.0 / s5],
+        [1.0, -1.0, -1.0, -1.0 / s5],
+        [-1.0, 1.0, -1.0, -1.0 / s5],
+        [-1.0, -1.0, 1.0, -1.0 / s5],
+        [0.0, 0.0, 0.0, 4.0 / s5],
+    ];
+    raw.map(|v| {
+        let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v.map(|x| x / n)
+    })
+}

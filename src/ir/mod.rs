@@ -1,0 +1,303 @@
+//! The SDF IR: a hash-consed graph of scalar operations (each unique node stored once, so common
+//! subexpressions are shared by construction), lowered from the typed scene.
+//!
+//! Vectors are lowered to four scalar nodes; the few operations that produce several values at
+//! once (the D4 decoder, lattice repetition, min-with-id) are tuple nodes read through `Proj`.
+
+pub mod eval;
+pub mod lower;
+pub mod opt;
+mod print;
+
+pub use lower::{MaterialIr, ObjectIr, SceneIr, lower};
+
+use std::collections::HashMap;
+
+/// A node of the graph; children always have smaller ids than their parents.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct Id(pub u32);
+
+/// Inputs of a tape: the point, the surface normal (material maps only) and the frame variable.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Var {
+    X,
+    Y,
+    Z,
+    W,
+    NX,
+    NY,
+    NZ,
+    NW,
+    T,
+}
+
+impl Var {
+    pub const ALL: [Var; 9] = [
+        Var::X,
+        Var::Y,
+        Var::Z,
+        Var::W,
+        Var::NX,
+        Var::NY,
+        Var::NZ,
+        Var::NW,
+        Var::T,
+    ];
+    pub const POINT: [Var; 4] = [Var::X, Var::Y, Var::Z, Var::W];
+    pub const NORMAL: [Var; 4] = [Var::NX, Var::NY, Var::NZ, Var::NW];
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    pub fn name(self) -> &'static str {
+        ["x", "y", "z", "w", "nx", "ny", "nz", "nw", "t"][self as usize]
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Un {
+    Neg,
+    Abs,
+    Sqrt,
+    Floor,
+    Ceil,
+    Round,
+    Fract,
+    Sign,
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Exp,
+    Ln,
+    Not,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Bin {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    /// Floored modulo (the sign of the divisor).
+    Mod,
+    Min,
+    Max,
+    Pow,
+    Atan2,
+    Lt,
+    Le,
+    Eq,
+    Ne,
+    And,
+    Or,
+}
+
+impl Un {
+    pub fn name(self) -> &'static str {
+        use Un::*;
+        match self {
+            Neg => "neg",
+            Abs => "abs",
+            Sqrt => "sqrt",
+            Floor => "floor",
+            Ceil => "ceil",
+            Round => "round",
+            Fract => "fract",
+            Sign => "sign",
+            Sin => "sin",
+            Cos => "cos",
+            Tan => "tan",
+            Asin => "asin",
+            Acos => "acos",
+            Atan => "atan",
+            Exp => "exp",
+            Ln => "ln",
+            Not => "not",
+        }
+    }
+}
+
+impl Bin {
+    pub fn name(self) -> &'static str {
+        use Bin::*;
+        match self {
+            Add => "add",
+            Sub => "sub",
+            Mul => "mul",
+            Div => "div",
+            Mod => "mod",
+            Min => "min",
+            Max => "max",
+            Pow => "pow",
+            Atan2 => "atan2",
+            Lt => "lt",
+            Le => "le",
+            Eq => "eq",
+            Ne => "ne",
+            And => "and",
+            Or => "or",
+        }
+    }
+
+    pub fn commutes(self) -> bool {
+        use Bin::*;
+        matches!(self, Add | Mul | Min | Max | Eq | Ne | And | Or)
+    }
+}
+
+/// A constant stored by its bits so nodes can be hashed; `-0.0` and `0.0` stay distinct, and
+/// every NaN is one constant.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct K(u64);
+
+impl K {
+    pub fn new(x: f64) -> K {
+        K(if x.is_nan() { f64::NAN.to_bits() } else { x.to_bits() })
+    }
+    pub fn get(self) -> f64 {
+        f64::from_bits(self.0)
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Node {
+    Var(Var),
+    Const(K),
+    Un(Un, Id),
+    Bin(Bin, Id, Id),
+    /// `if c != 0 { a } else { b }`
+    Select(Id, Id, Id),
+    /// sqrt(x^2 + y^2 + z^2 + w^2)
+    Length([Id; 4]),
+    /// One row of an affine map: c . v + offset (`row` holds c0..c3, offset).
+    Affine([Id; 4], [K; 5]),
+    /// The hyperbox distance with constant half-extents:
+    /// |max(q, 0)| + min(max_i q_i, 0) with q = |v| - half.
+    BoxDist([Id; 4], [K; 4]),
+    /// Polynomial smooth minimum with blend width `k` (plain min when k <= 0).
+    SMin(Id, Id, Id),
+    /// Smooth maximum: -smin(-a, -b, k).
+    SMax(Id, Id, Id),
+    /// D4 nearest point of a point given in lattice units; a tuple of 8: the offset from the
+    /// nearest lattice point (4), then the lattice point (4).
+    D4([Id; 4]),
+    /// Repetition along one axis in cell units with limit `l` (cells -l..=l); a tuple of 2:
+    /// the offset from the cell centre, then the cell index.
+    Rep(Id, K),
+    /// Running minimum with the id of the nearest object; a tuple of 2 (distance, id):
+    /// (d, id) when d < best, else (best, best_id).
+    MinId(Id, Id, Id, K),
+    /// Output `i` of a tuple node.
+    Proj(Id, u8),
+}
+
+impl Node {
+    /// The node's operands, in order.
+    pub fn children(&self) -> Vec<Id> {
+        match *self {
+            Node::Var(_) | Node::Const(_) => vec![],
+            Node::Un(_, a) | Node::Rep(a, _) | Node::Proj(a, _) => vec![a],
+            Node::Bin(_, a, b) => vec![a, b],
+            Node::Select(a, b, c) | Node::SMin(a, b, c) | Node::SMax(a, b, c) => vec![a, b, c],
+            Node::MinId(a, b, c, _) => vec![a, b, c],
+            Node::Length(v) | Node::Affine(v, _) | Node::BoxDist(v, _) | Node::D4(v) => v.to_vec(),
+        }
+    }
+
+    /// The same node with its operands renamed.
+    pub fn map(&self, mut f: impl FnMut(Id) -> Id) -> Node {
+        let mut v4 = |v: [Id; 4]| v.map(&mut f);
+        match *self {
+            n @ (Node::Var(_) | Node::Const(_)) => n,
+            Node::Un(op, a) => Node::Un(op, f(a)),
+            Node::Rep(a, l) => Node::Rep(f(a), l),
+            Node::Proj(a, i) => Node::Proj(f(a), i),
+            Node::Bin(op, a, b) => Node::Bin(op, f(a), f(b)),
+            Node::Select(a, b, c) => Node::Select(f(a), f(b), f(c)),
+            Node::SMin(a, b, c) => Node::SMin(f(a), f(b), f(c)),
+            Node::SMax(a, b, c) => Node::SMax(f(a), f(b), f(c)),
+            Node::MinId(a, b, c, k) => Node::MinId(f(a), f(b), f(c), k),
+            Node::Length(v) => Node::Length(v4(v)),
+            Node::Affine(v, r) => Node::Affine(v4(v), r),
+            Node::BoxDist(v, h) => Node::BoxDist(v4(v), h),
+            Node::D4(v) => Node::D4(v4(v)),
+        }
+    }
+
+    /// How many values the node produces (tuples are read through `Proj`).
+    pub fn arity(&self) -> usize {
+        match self {
+            Node::D4(_) => 8,
+            Node::Rep(..) | Node::MinId(..) => 2,
+            _ => 1,
+        }
+    }
+}
+
+/// The graph: nodes in an arena, interned so that each distinct node exists once.
+#[derive(Clone, Debug, Default)]
+pub struct Graph {
+    nodes: Vec<Node>,
+    index: HashMap<Node, Id>,
+}
+
+impl Graph {
+    pub fn new() -> Graph {
+        Graph::default()
+    }
+
+    /// The id of `node`, adding it if it is new.
+    pub fn intern(&mut self, node: Node) -> Id {
+        let node = match node {
+            // Commutative operands in a canonical order, so `a + b` and `b + a` are one node.
+            Node::Bin(op, a, b) if op.commutes() && b < a => Node::Bin(op, b, a),
+            n => n,
+        };
+        if let Some(&id) = self.index.get(&node) {
+            return id;
+        }
+        let id = Id(self.nodes.len() as u32);
+        self.nodes.push(node);
+        self.index.insert(node, id);
+        id
+    }
+
+    pub fn get(&self, id: Id) -> Node {
+        self.nodes[id.0 as usize]
+    }
+
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+
+    pub fn constant(&self, id: Id) -> Option<f64> {
+        match self.get(id) {
+            Node::Const(k) => Some(k.get()),
+            _ => None,
+        }
+    }
+
+    /// Which nodes the given roots depend on, as a mask over ids.
+    pub fn live(&self, roots: &[Id]) -> Vec<bool> {
+        let mut live = vec![false; self.nodes.len()];
+        for r in roots {
+            live[r.0 as usize] = true;
+        }
+        for i in (0..self.nodes.len()).rev() {
+            if live[i] {
+                for c in self.nodes[i].children() {
+                    live[c.0 as usize] = true;
+                }
+            }
+        }
+        live
+    }
+}

@@ -1,0 +1,163 @@
+//! Optimisation: the graph is rebuilt node by node through rules that fold constants, apply
+//! algebraic identities, turn division by a constant into multiplication and merge chains of
+//! affine maps; a second rebuild keeps only the nodes the roots still need (dead code).
+//! Interning during the rebuild is the CSE.
+
+use super::eval::fold;
+use super::{Bin, Graph, Id, K, Node, SceneIr, Un, Var};
+
+/// The optimised scene, with `t` left free (`None`) or fixed to a frame's value.
+pub fn optimise(ir: &SceneIr, t: Option<f64>) -> SceneIr {
+    let simplified = rebuild(ir, |g, n| simplify(g, n, t));
+    rebuild(&simplified, |g, n| g.intern(n))
+}
+
+/// Copy the nodes the roots need into a new graph through `add`.
+fn rebuild(ir: &SceneIr, mut add: impl FnMut(&mut Graph, Node) -> Id) -> SceneIr {
+    let old = &ir.graph;
+    let live = old.live(&ir.roots());
+    let mut g = Graph::new();
+    let mut map = vec![Id(u32::MAX); old.len()];
+    for i in 0..old.len() {
+        if live[i] {
+            let n = old.get(Id(i as u32)).map(|c| map[c.0 as usize]);
+            map[i] = add(&mut g, n);
+        }
+    }
+    ir.remap(g, &mut |id| map[id.0 as usize])
+}
+
+fn k(g: &mut Graph, x: f64) -> Id {
+    g.intern(Node::Const(K::new(x)))
+}
+
+/// Add `n` (whose operands are already simplified) to `g` in its simplest form.
+fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
+    if let (Node::Var(Var::T), Some(t)) = (n, t) {
+        return k(g, t);
+    }
+    if let Some(x) = fold(g, &n) {
+        return k(g, x);
+    }
+    let c = |id: Id| g.constant(id);
+    match n {
+        Node::Bin(op, a, b) => {
+            let (ca, cb) = (c(a), c(b));
+            let same = a == b;
+            match op {
+                Bin::Add if ca == Some(0.0) => return b,
+                Bin::Add | Bin::Sub if cb == Some(0.0) => return a,
+                Bin::Sub if ca == Some(0.0) => return simplify(g, Node::Un(Un::Neg, b), t),
+                Bin::Mul if ca == Some(1.0) => return b,
+                Bin::Mul | Bin::Div if cb == Some(1.0) => return a,
+                Bin::Div if cb.is_some_and(|x| x != 0.0 && x.is_finite()) => {
+                    let r = k(g, 1.0 / cb.unwrap_or(1.0));
+                    return g.intern(Node::Bin(Bin::Mul, a, r));
+                }
+                Bin::Min | Bin::Max if same => return a,
+                Bin::Min if ca == Some(f64::INFINITY) => return b,
+                Bin::Min if cb == Some(f64::INFINITY) => return a,
+                Bin::Max if ca == Some(f64::NEG_INFINITY) => return b,
+                Bin::Max if cb == Some(f64::NEG_INFINITY) => return a,
+                _ => {}
+            }
+        }
+        Node::Un(Un::Neg, a) => {
+            if let Node::Un(Un::Neg, x) = g.get(a) {
+                return x;
+            }
+        }
+        Node::Select(cond, a, b) => {
+            if a == b {
+                return a;
+            }
+            if let Some(x) = c(cond) {
+                return if x != 0.0 { a } else { b };
+            }
+        }
+        Node::SMin(a, b, kk) | Node::SMax(a, b, kk) if c(kk).is_some_and(|x| x <= 0.0) => {
+            let op = if matches!(n, Node::SMin(..)) {
+                Bin::Min
+            } else {
+                Bin::Max
+            };
+            return simplify(g, Node::Bin(op, a, b), t);
+        }
+        Node::Affine(v, row) => return affine(g, v, row.map(K::get)),
+        _ => {}
+    }
+    g.intern(n)
+}
+
+/// A node as a linear combination of "atoms" (nodes that are not affine in their operands)
+/// plus a constant.
+fn expand(g: &Graph, id: Id) -> (Vec<(Id, f64)>, f64) {
+    let c = |x: Id| g.constant(x);
+    match g.get(id) {
+        Node::Affine(src, r) => {
+            let terms = (0..4)
+                .filter(|j| r[*j].get() != 0.0)
+                .map(|j| (src[j], r[j].get()))
+                .collect();
+            (terms, r[4].get())
+        }
+        Node::Bin(Bin::Add, a, b) if c(b).is_some() => (vec![(a, 1.0)], c(b).unwrap_or(0.0)),
+        Node::Bin(Bin::Mul, a, b) if c(b).is_some() => (vec![(a, c(b).unwrap_or(1.0))], 0.0),
+        Node::Un(Un::Neg, a) => (vec![(a, -1.0)], 0.0),
+        Node::Const(k) => (vec![], k.get()),
+        _ => (vec![(id, 1.0)], 0.0),
+    }
+}
+
+/// An affine row, merged with the affine maps it reads when the result still has at most four
+/// inputs, and reduced when it is a constant, a plain input or an offset.
+fn affine(g: &mut Graph, v: [Id; 4], row: [f64; 5]) -> Id {
+    // Collect sum_i row_i * expand(v_i) over distinct atoms, in id order for a canonical form.
+    let mut terms: Vec<(Id, f64)> = vec![];
+    let mut offset = row[4];
+    let mut add = |terms: &mut Vec<(Id, f64)>, a: Id, c: f64| match terms.iter_mut().find(|t| t.0 == a) {
+        Some(t) => t.1 += c,
+        None => terms.push((a, c)),
+    };
+    for i in (0..4).filter(|i| row[*i] != 0.0) {
+        let (ts, k) = expand(g, v[i]);
+        offset += row[i] * k;
+        for (a, c) in ts {
+            add(&mut terms, a, row[i] * c);
+        }
+    }
+    terms.retain(|t| t.1 != 0.0);
+    terms.sort_by_key(|t| t.0);
+    if terms.len() > 4 {
+        // Too many inputs to merge: keep the row over its direct operands.
+        terms.clear();
+        offset = row[4];
+        for i in (0..4).filter(|i| row[*i] != 0.0) {
+            add(&mut terms, v[i], row[i]);
+        }
+        terms.sort_by_key(|t| t.0);
+    }
+    match terms[..] {
+        [] => k(g, offset),
+        [(a, c)] if c == 1.0 && offset == 0.0 => a,
+        [(a, c)] if c == 1.0 => {
+            let b = k(g, offset);
+            g.intern(Node::Bin(Bin::Add, a, b))
+        }
+        [(a, c)] if offset == 0.0 => {
+            let m = k(g, c);
+            g.intern(Node::Bin(Bin::Mul, a, m))
+        }
+        _ => {
+            // Unused slots repeat the first input with coefficient 0.
+            let first = terms[0].0;
+            let mut src = [first; 4];
+            let mut r = [0.0, 0.0, 0.0, 0.0, offset];
+            for (j, (a, c)) in terms.iter().enumerate() {
+                src[j] = *a;
+                r[j] = *c;
+            }
+            g.intern(Node::Affine(src, r.map(K::new)))
+        }
+    }
+}
