@@ -1,5 +1,6 @@
 //! Snapshot tests: every file under `tests/in/errors/` renders its diagnostics, every valid scene
-//! under `tests/in/` and `examples/` prints its syntax tree and its checked scene.
+//! under `tests/in/` and `examples/` prints its syntax tree, its checked scene, its optimised IR
+//! and its bytecode.
 //!
 //! Update with `INSTA_UPDATE=always cargo test --release` (or `cargo insta review`).
 
@@ -100,6 +101,8 @@ fn check_valid(path: &Path, with_ast: bool, scene_name: &str) {
             insta::assert_snapshot!("ast", c.emit_ast());
         }
         insta::assert_snapshot!(scene_name, scene);
+        insta::assert_snapshot!(format!("{scene_name}_ir"), c.emit_ir().unwrap_or_default());
+        insta::assert_snapshot!(format!("{scene_name}_bytecode"), c.emit_bytecode().unwrap_or_default());
         if !warnings.is_empty() {
             insta::assert_snapshot!("warnings", warnings);
         }

@@ -115,7 +115,7 @@ fn affine(g: &mut Graph, v: [Id; 4], row: [f64; 5]) -> Id {
     // Collect sum_i row_i * expand(v_i) over distinct atoms, in id order for a canonical form.
     let mut terms: Vec<(Id, f64)> = vec![];
     let mut offset = row[4];
-    let mut add = |terms: &mut Vec<(Id, f64)>, a: Id, c: f64| match terms.iter_mut().find(|t| t.0 == a) {
+    let add = |terms: &mut Vec<(Id, f64)>, a: Id, c: f64| match terms.iter_mut().find(|t| t.0 == a) {
         Some(t) => t.1 += c,
         None => terms.push((a, c)),
     };

@@ -2,7 +2,6 @@
 
 use super::tape::{Instr, Reg, Tape};
 use super::Program;
-use crate::check::value::Num;
 use std::fmt;
 
 fn regs(v: &[Reg]) -> String {
@@ -10,14 +9,27 @@ fn regs(v: &[Reg]) -> String {
     parts.join(" ")
 }
 
+/// An immediate in its shortest `f32` form.
+struct F(f32);
+
+impl fmt::Display for F {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.0 {
+            x if x.is_infinite() => f.write_str(if x > 0.0 { "inf" } else { "-inf" }),
+            x if x == 0.0 => f.write_str("0"),
+            x => write!(f, "{x}"),
+        }
+    }
+}
+
 fn nums(v: &[f32]) -> String {
-    let parts: Vec<String> = v.iter().map(|x| Num(*x as f64).to_string()).collect();
+    let parts: Vec<String> = v.iter().map(|x| F(*x).to_string()).collect();
     parts.join(" ")
 }
 
 impl fmt::Display for Instr {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let k = |x: f32| Num(x as f64);
+        let k = F;
         match *self {
             Instr::Const { d, k: x } => write!(f, "r{d} = const {}", k(x)),
             Instr::Un { op, d, a } => write!(f, "r{d} = {} r{a}", op.name()),

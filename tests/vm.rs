@@ -1,0 +1,405 @@
+//! The VM against the plain IR: for every example and test scene the optimised bytecode must
+//! agree with a tree-walking evaluation of the unoptimised graph; the batched and one-point
+//! paths must agree exactly; derivatives must match central differences; interval bounds must
+//! contain every value; and every primitive and operation must be a distance bound.
+
+use hyperslice::Compilation;
+use hyperslice::check::Scene;
+use hyperslice::ir::eval::{Reference, vars};
+use hyperslice::ir;
+use hyperslice::vm::interval::{self, I};
+use hyperslice::vm::{self, Dual, LANES, Program, Regs, Tape};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::path::PathBuf;
+
+fn scene_files() -> Vec<PathBuf> {
+    let mut out = vec![];
+    for dir in ["examples", "tests/in"] {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.extension().is_some_and(|x| x == "4ds") {
+                out.push(p);
+            }
+        }
+    }
+    out.sort();
+    out
+}
+
+fn compile_file(p: &PathBuf) -> Scene {
+    let c = Compilation::from_path(p);
+    assert!(!c.has_errors(), "{}: {}", p.display(), c.render_diagnostics(false));
+    c.scene.unwrap()
+}
+
+fn compile_text(src: &str) -> Scene {
+    let c = Compilation::from_source("test.4ds", src);
+    assert!(!c.has_errors(), "{src}\n{}", c.render_diagnostics(false));
+    c.scene.unwrap()
+}
+
+fn random_point(rng: &mut Pcg64Mcg, r: f64) -> [f64; 4] {
+    std::array::from_fn(|_| rng.random_range(-r..r))
+}
+
+fn random_unit(rng: &mut Pcg64Mcg) -> [f64; 4] {
+    let v = random_point(rng, 1.0);
+    let n = v.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-9);
+    v.map(|x| x / n)
+}
+
+fn to32(p: [f64; 4]) -> [f32; 4] {
+    p.map(|x| x as f32)
+}
+
+/// f32 evaluation of long chains drifts from f64: allow a relative error that grows with the
+/// magnitudes involved.
+fn close(vm: f32, reference: f64, scale: f64) -> bool {
+    let (a, b) = (vm as f64, reference);
+    if a.is_infinite() || b.is_infinite() {
+        return a == b;
+    }
+    (a - b).abs() <= 2e-4 * (1.0 + b.abs() + scale)
+}
+
+#[test]
+fn optimised_bytecode_matches_the_plain_ir() {
+    let mut rng = Pcg64Mcg::seed_from_u64(1);
+    let mut checked = 0;
+    for file in scene_files() {
+        let scene = compile_file(&file);
+        let raw = ir::lower(&scene);
+        let prog = Program::from_ir(&raw, None);
+        let roots = raw.roots();
+        let mut reference = Reference::new(&raw.graph, &roots);
+        let mut one = Regs::<f32, 1>::new(&prog.scene);
+        for _ in 0..2000 {
+            let p = random_point(&mut rng, 4.0);
+            let n = random_unit(&mut rng);
+            let t = rng.random_range(0.0..1.0);
+            reference.run(&vars(p, n, t));
+            let want = |id| reference.value(id);
+            let scale = p.iter().map(|x| x.abs()).sum::<f64>();
+            let got = vm::eval_point(&prog.scene, &mut one, to32(p), to32(n), t as f32);
+            let d = want(raw.distance);
+            assert!(
+                close(got[0], d, scale),
+                "{}: scene distance at {p:?} t={t}: vm {} vs ir {d}",
+                file.display(),
+                got[0]
+            );
+            for (o, tapes) in raw.objects.iter().zip(&prog.objects) {
+                let got = vm::eval_point(&tapes.distance, &mut one, to32(p), to32(n), t as f32);
+                let d = want(o.distance);
+                assert!(
+                    close(got[0], d, scale),
+                    "{}: object {} at {p:?}: vm {} vs ir {d}",
+                    file.display(),
+                    o.name,
+                    got[0]
+                );
+                let got = vm::eval_point(&tapes.material, &mut one, to32(p), to32(n), t as f32);
+                for (g, id) in got.iter().zip(o.material.roots()) {
+                    assert!(
+                        close(*g, want(id), scale),
+                        "{}: material of {} at {p:?}: vm {g} vs ir {}",
+                        file.display(),
+                        o.name,
+                        want(id)
+                    );
+                }
+            }
+            // The nearest object agrees unless two objects are equally near.
+            let id = got_nearest(&prog, &mut one, p, n, t);
+            let want_id = want(raw.nearest);
+            if id != want_id as f32 {
+                let gap = (want(raw.objects[id as usize].distance) - d).abs();
+                assert!(gap < 1e-3 * (1.0 + scale), "{}: nearest {id} vs {want_id}", file.display());
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked >= 2000 * 19, "checked {checked} points");
+}
+
+fn got_nearest(prog: &Program, regs: &mut Regs<f32, 1>, p: [f64; 4], n: [f64; 4], t: f64) -> f32 {
+    vm::eval_point(&prog.scene, regs, to32(p), to32(n), t as f32)[1]
+}
+
+#[test]
+fn batched_and_single_point_paths_agree_exactly() {
+    let mut rng = Pcg64Mcg::seed_from_u64(2);
+    for file in scene_files() {
+        let prog = Program::new(&compile_file(&file), None);
+        let n = 1000;
+        let pts: Vec<[f32; 4]> = (0..n).map(|_| to32(random_point(&mut rng, 5.0))).collect();
+        let soa: [Vec<f32>; 4] = std::array::from_fn(|a| pts.iter().map(|p| p[a]).collect());
+        for tape in prog.tapes().filter(|t| t.inputs.iter().all(|v| v.index() < 4 || v.index() == 8)) {
+            let mut batch = Regs::<f32, LANES>::new(tape);
+            let mut out = vec![0.0; n];
+            vm::eval_slices(tape, &mut batch, [&soa[0], &soa[1], &soa[2], &soa[3]], 0.25, &mut out);
+            let mut one = Regs::<f32, 1>::new(tape);
+            for (p, b) in pts.iter().zip(&out) {
+                let s = vm::eval_point(tape, &mut one, *p, [0.0; 4], 0.25)[0];
+                assert!(
+                    s.to_bits() == b.to_bits() || (s.is_nan() && b.is_nan()),
+                    "{} tape {}: batched {b} vs single {s} at {p:?}",
+                    file.display(),
+                    tape.name
+                );
+            }
+        }
+    }
+}
+
+/// Central differences in f64 on the reference, kept only where the field is smooth (two step
+/// sizes agree), against the forward-mode gradient of the optimised tape.
+#[test]
+fn gradients_match_central_differences() {
+    let mut rng = Pcg64Mcg::seed_from_u64(3);
+    let (mut smooth, mut total) = (0, 0);
+    for file in scene_files() {
+        let scene = compile_file(&file);
+        let raw = ir::lower(&scene);
+        let prog = Program::from_ir(&raw, None);
+        for (o, tapes) in raw.objects.iter().zip(&prog.objects) {
+            let mut reference = Reference::new(&raw.graph, &[o.distance]);
+            let mut f = |p: [f64; 4]| {
+                reference.run(&vars(p, [0.0; 4], 0.5));
+                reference.value(o.distance)
+            };
+            let mut regs = Regs::<Dual, 8>::new(&tapes.distance);
+            for _ in 0..100 {
+                let p = random_point(&mut rng, 3.0);
+                let fd = |f: &mut dyn FnMut([f64; 4]) -> f64, h: f64| -> [f64; 4] {
+                    std::array::from_fn(|a| {
+                        let (mut lo, mut hi) = (p, p);
+                        lo[a] -= h;
+                        hi[a] += h;
+                        (f(hi) - f(lo)) / (2.0 * h)
+                    })
+                };
+                let (g1, g2) = (fd(&mut f, 1e-4), fd(&mut f, 5e-5));
+                total += 1;
+                if g1.iter().zip(&g2).any(|(a, b)| (a - b).abs() > 1e-4) || g1.iter().any(|x| !x.is_finite()) {
+                    continue;
+                }
+                smooth += 1;
+                let d = vm::gradient(&tapes.distance, &mut regs, &[to32(p)], 0.5)[0];
+                for a in 0..4 {
+                    assert!(
+                        (d.g[a] as f64 - g1[a]).abs() < 2e-3 * (1.0 + g1[a].abs()),
+                        "{} {}: d/d{a} at {p:?}: forward {} vs central {}",
+                        file.display(),
+                        o.name,
+                        d.g[a],
+                        g1[a]
+                    );
+                }
+            }
+        }
+    }
+    assert!(smooth * 2 > total, "only {smooth} of {total} points were smooth");
+}
+
+#[test]
+fn interval_bounds_contain_every_value() {
+    let mut rng = Pcg64Mcg::seed_from_u64(4);
+    for file in scene_files() {
+        let prog = Program::new(&compile_file(&file), None);
+        let mut one = Regs::<f32, 1>::new(&prog.scene);
+        for tape in prog.tapes() {
+            for _ in 0..40 {
+                let c = random_point(&mut rng, 4.0);
+                let r = rng.random_range(0.0..1.5);
+                let n = random_unit(&mut rng);
+                let mut inputs = [I::point(0.0); 9];
+                for a in 0..4 {
+                    inputs[a] = I::new((c[a] - r) as f32, (c[a] + r) as f32);
+                    inputs[4 + a] = I::point(n[a] as f32);
+                }
+                inputs[8] = I::new(0.0, 1.0);
+                let bounds = interval::eval(tape, &inputs);
+                for _ in 0..30 {
+                    let p: [f32; 4] = std::array::from_fn(|a| (c[a] + rng.random_range(-r..=r)) as f32);
+                    let t = rng.random_range(0.0..1.0);
+                    let v = vm::eval_point(tape, &mut one, p, to32(n), t);
+                    for (b, x) in bounds.iter().zip(&v) {
+                        let slack = 1e-4 * (1.0 + x.abs());
+                        assert!(
+                            I::new(b.lo - slack, b.hi + slack).contains(*x),
+                            "{} tape {}: {x} outside {b:?} at {p:?}",
+                            file.display(),
+                            tape.name
+                        );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// No instruction writes a register it reads, and every register is in range.
+#[test]
+fn register_allocation_is_sound() {
+    for file in scene_files() {
+        let prog = Program::new(&compile_file(&file), None);
+        for tape in prog.tapes() {
+            for ins in &tape.code {
+                let (r, w) = (ins.reads(), ins.writes());
+                assert!(w.iter().all(|x| !r.contains(x)), "{}: {ins} overwrites an operand", tape.name);
+                assert!(r.iter().chain(&w).all(|x| (*x as usize) < tape.regs));
+            }
+            assert!(tape.outputs.iter().all(|x| (*x as usize) < tape.regs));
+        }
+    }
+}
+
+/// Shapes each of which must be a distance bound, with points known to lie on their surface.
+const SHAPES: &[(&str, &[[f64; 4]])] = &[
+    ("hypersphere(1.2)", &[[1.2, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, -1.2], [0.6, 0.6, 0.6, 0.6]]),
+    ("halfspace([1, 2, 0, -1], offset: 0.5)", &[[0.0, 0.0, 0.0, -0.5 * 2.449489742783178]]),
+    ("hyperbox([1, 0.5, 2, 0.7])", &[[1.0, 0.0, 0.0, 0.0], [1.0, 0.5, 2.0, 0.7], [0.3, -0.5, 0.1, 0.0]]),
+    ("hyperbox(1, radius: 0.25)", &[[1.0, 0.0, 0.0, 0.0], [0.0, 0.0, -1.0, 0.5]]),
+    ("spherinder(radius: 0.8, height: 0.5)", &[[0.8, 0.0, 0.0, 0.2], [0.0, 0.0, 0.3, 0.5]]),
+    ("cubinder(radius: 0.8, height: 0.5)", &[[0.0, 0.8, 0.1, 0.2], [0.1, 0.0, 0.5, 0.3]]),
+    ("duocylinder(radius1: 0.8, radius2: 0.5)", &[[0.8, 0.0, 0.5, 0.0], [0.0, 0.8, 0.3, 0.0]]),
+    ("cell5(1)", &[]),
+    ("cell16(1)", &[[1.0, 0.0, 0.0, 0.0], [0.25, 0.25, 0.25, 0.25]]),
+    ("cell24(1)", &[[0.70710678118654752, 0.70710678118654752, 0.0, 0.0], [0.70710678118654752, 0.0, 0.0, 0.0]]),
+    ("union(hypersphere(1), hyperbox(0.5) |> translate([1.5, 0, 0, 0]))", &[[-1.0, 0.0, 0.0, 0.0], [2.0, 0.0, 0.0, 0.0]]),
+    ("union(hypersphere(1), hypersphere(1) |> translate([1.5, 0, 0, 0]), smooth: 0.3)", &[[-1.0, 0.0, 0.0, 0.0]]),
+    ("intersect(hypersphere(1), hyperbox(0.7))", &[[0.7, 0.0, 0.0, 0.0]]),
+    ("intersect(hypersphere(1), hyperbox(0.7), smooth: 0.2)", &[]),
+    ("subtract(hyperbox(1), hypersphere(0.5))", &[[0.5, 0.0, 0.0, 0.0], [1.0, 0.2, 0.0, 0.0]]),
+    ("subtract(hyperbox(1), hypersphere(0.5), smooth: 0.1)", &[]),
+    ("onion(hypersphere(1), thickness: 0.2)", &[[1.1, 0.0, 0.0, 0.0], [0.0, 0.9, 0.0, 0.0]]),
+    ("round(hyperbox(0.5), 0.2)", &[[0.7, 0.0, 0.0, 0.0]]),
+    ("translate(hypersphere(1), [1, 2, 3, 4])", &[[2.0, 2.0, 3.0, 4.0]]),
+    ("rotate(hyperbox([1, 0.2, 0.2, 0.2]), xw, 90deg)", &[[0.0, 0.0, 0.0, 1.0], [0.2, 0.0, 0.0, 0.0]]),
+    ("hyperbox([1, 0.3, 0.2, 0.1]) |> rotate(xy, 30deg) |> rotate(zw, 45deg) |> rotate(yw, 10deg)", &[]),
+    ("scale(hyperbox(0.5), 3)", &[[1.5, 0.0, 0.0, 0.0]]),
+    ("symmetry(hypersphere(0.5) |> translate([1, 0, 0, 0]), [1, 0, 0, 0])", &[[-1.5, 0.0, 0.0, 0.0], [1.5, 0.0, 0.0, 0.0]]),
+    ("hypersphere(0.6) |> tile(d4(1))", &[[1.6, 1.0, 0.0, 0.0], [0.6, 0.0, 0.0, 0.0]]),
+    ("hyperbox(0.4) |> tile(grid(2, limit: [2, 0, 1, 0]))", &[[4.4, 0.0, 0.0, 0.0], [2.0, 0.4, 2.0, 0.0]]),
+    ("hypersphere(0.5) |> tile(grid([1.5, 2, 3, 4]))", &[[3.5, 0.0, 0.0, 0.0]]),
+    ("sdf |p| length(p) - 1", &[[1.0, 0.0, 0.0, 0.0]]),
+    ("hypersphere(0.5 + 0.5 * t)", &[]),
+    ("hyperbox(1) |> rotate(xw, t * 90deg)", &[]),
+];
+
+#[test]
+fn every_primitive_and_operation_is_a_distance_bound() {
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    for (shape, surface) in SHAPES {
+        let scene = compile_text(&format!("object s {{ shape = {shape} }}"));
+        let raw = ir::lower(&scene);
+        let id = raw.objects[0].distance;
+        let mut r = Reference::new(&raw.graph, &[id]);
+        let mut f = |p: [f64; 4], t: f64| {
+            r.run(&vars(p, [0.0; 4], t));
+            r.value(id)
+        };
+        // The gradient of a distance bound never exceeds 1 in length, which catches a blend
+        // that overshoots in a thin region random pairs rarely straddle.
+        let prog = Program::from_ir(&raw, None);
+        let mut regs = Regs::<Dual, 1>::new(&prog.objects[0].distance);
+        for _ in 0..3000 {
+            let p = random_point(&mut rng, 2.5);
+            let t = rng.random_range(0.0..1.0);
+            let g = vm::gradient(&prog.objects[0].distance, &mut regs, &[to32(p)], t as f32)[0].g;
+            let len = g.iter().map(|x| x * x).sum::<f32>().sqrt();
+            assert!(len <= 1.0 + 1e-3, "{shape}: gradient length {len} at {p:?}");
+        }
+        for _ in 0..3000 {
+            let a = random_point(&mut rng, 4.0);
+            let step = 10f64.powf(rng.random_range(-3.0..0.5));
+            let dir = random_unit(&mut rng);
+            let b: [f64; 4] = std::array::from_fn(|i| a[i] + step * dir[i]);
+            let t = rng.random_range(0.0..1.0);
+            let (fa, fb) = (f(a, t), f(b, t));
+            assert!(
+                (fa - fb).abs() <= step * (1.0 + 1e-4) + 1e-12,
+                "{shape}: |f(a) - f(b)| = {} > |a - b| = {step} at a = {a:?}",
+                (fa - fb).abs()
+            );
+        }
+        for p in *surface {
+            let d = f(*p, 0.0);
+            assert!(d.abs() < 1e-9, "{shape}: f = {d} at the surface point {p:?}");
+        }
+    }
+}
+
+#[test]
+fn cell5_vertices_lie_on_its_surface() {
+    let scene = compile_text("object s { shape = cell5(2) }");
+    let raw = ir::lower(&scene);
+    let mut r = Reference::new(&raw.graph, &[raw.objects[0].distance]);
+    for v in ir::lower::simplex_vertices() {
+        r.run(&vars(v.map(|x| 2.0 * x), [0.0; 4], 0.0));
+        assert!(r.value(raw.objects[0].distance).abs() < 1e-9);
+    }
+}
+
+/// The distance to the nearest D4 point by brute force over the even-sum points near `p`.
+fn d4_brute(p: [f64; 4]) -> f64 {
+    let base = p.map(f64::floor);
+    let mut best = f64::INFINITY;
+    for m in 0..256 {
+        let q: [f64; 4] = std::array::from_fn(|i| base[i] - 1.0 + ((m >> (2 * i)) & 3) as f64);
+        if (q.iter().sum::<f64>() as i64).rem_euclid(2) == 0 {
+            let d: f64 = (0..4).map(|i| (p[i] - q[i]).powi(2)).sum();
+            best = best.min(d);
+        }
+    }
+    best.sqrt()
+}
+
+#[test]
+fn d4_decoder_finds_the_nearest_point_even_far_away() {
+    let mut rng = Pcg64Mcg::seed_from_u64(6);
+    for scale in [1.0, 1e3, 1e6] {
+        for _ in 0..20000 {
+            let p = random_point(&mut rng, scale);
+            let o = ir::eval::d4(p);
+            let cell = [o[4], o[5], o[6], o[7]];
+            assert_eq!((cell.iter().sum::<f64>() as i64).rem_euclid(2), 0, "odd point for {p:?}");
+            let d = (0..4).map(|i| (p[i] - cell[i]).powi(2)).sum::<f64>().sqrt();
+            assert!((d - d4_brute(p)).abs() < 1e-9, "{p:?}: decoder {d} vs brute force {}", d4_brute(p));
+        }
+    }
+}
+
+/// The scene compiled per frame (t folded in) agrees with the tape that reads t.
+#[test]
+fn frames_specialised_on_t_agree() {
+    let scene = compile_file(&PathBuf::from("examples/tesseract.4ds"));
+    let free = Program::new(&scene, None);
+    let mut rng = Pcg64Mcg::seed_from_u64(7);
+    let mut one = Regs::<f32, 1>::new(&free.scene);
+    for t in [0.0, 0.3, 1.0] {
+        let fixed = Program::new(&scene, Some(t));
+        assert!(fixed.scene.code.len() <= free.scene.code.len());
+        assert!(!fixed.scene.inputs.contains(&hyperslice::ir::Var::T));
+        for _ in 0..500 {
+            let p = to32(random_point(&mut rng, 3.0));
+            let a = vm::eval_point(&free.scene, &mut one, p, [0.0; 4], t as f32)[0];
+            let b = vm::eval_point(&fixed.scene, &mut one, p, [0.0; 4], 0.0)[0];
+            assert!((a - b).abs() < 1e-4 * (1.0 + a.abs()), "t={t}: {a} vs {b}");
+        }
+    }
+}
+
+#[test]
+fn tapes_hold_only_what_their_roots_need() {
+    // A tape keeps only what its roots need: an object's distance tape has no material ops.
+    let scene = compile_text(
+        "object a { shape = hypersphere(1)  material = |p, n| diffuse(albedo: rgb(fract(p.x))) }",
+    );
+    let prog = Program::new(&scene, None);
+    let tapes: Vec<&Tape> = prog.tapes().collect();
+    assert_eq!(tapes[1].code.len(), 2, "{}", tapes[1]);
+    assert!(tapes[2].code.iter().any(|i| i.to_string().contains("fract")), "{}", tapes[2]);
+}
