@@ -1,7 +1,7 @@
 //! The `hyperslice` command line.
 
 use clap::{Parser, Subcommand, ValueEnum};
-use hyperslice::Compilation;
+use hyperslice::{Compilation, vm};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -74,13 +74,16 @@ fn main() -> ExitCode {
                     failed = true;
                 } else if let Some(scene) = &c.scene {
                     let warnings = c.diagnostics.len();
+                    let tape = vm::Program::new(scene, None).scene;
                     eprintln!(
-                        "{}: ok ({} object{}, {} frame{}{})",
+                        "{}: ok ({} object{}, {} frame{}, scene tape {} ops in {} registers{})",
                         file.display(),
                         scene.objects.len(),
                         if scene.objects.len() == 1 { "" } else { "s" },
                         scene.render.frames,
                         if scene.render.frames == 1 { "" } else { "s" },
+                        tape.code.len(),
+                        tape.regs,
                         if warnings > 0 {
                             format!(
                                 ", {warnings} warning{}",
