@@ -13,7 +13,12 @@ use fidget::context::Tree;
 use std::ops::{Add, Mul, Neg, Sub};
 
 pub trait Num:
-    Clone + From<f32> + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Neg<Output = Self>
+    Clone
+    + From<f32>
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<Output = Self>
+    + Neg<Output = Self>
 {
     fn min(&self, o: &Self) -> Self;
     fn max(&self, o: &Self) -> Self;

@@ -5,6 +5,9 @@
 //! loop into one 256-bit instruction. Masks are 1.0/0.0 numbers (as in [`Num`]), which keeps the
 //! generic formulas branch-free; LLVM folds `select(gt(a, b), t, f)` into compare + blend.
 
+// Indexed loops over the lanes are the shape LLVM's vectoriser handles best.
+#![allow(clippy::needless_range_loop)]
+
 use crate::num::Num;
 use std::ops::{Add, Mul, Neg, Sub};
 

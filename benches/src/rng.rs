@@ -22,7 +22,13 @@ impl Rng {
         lo + (hi - lo) * u
     }
 
-    pub fn vec4(&mut self, lo: f32, hi: f32) -> [f32; 4] {
-        std::array::from_fn(|_| self.range(lo, hi))
+    /// Uniform in [lo, hi], rounded to a multiple of 1/256, so generated scenes print in few
+    /// digits.
+    pub fn param(&mut self, lo: f32, hi: f32) -> f32 {
+        (self.range(lo, hi) * 256.0).round() / 256.0
+    }
+
+    pub fn param4(&mut self, lo: f32, hi: f32) -> [f32; 4] {
+        std::array::from_fn(|_| self.param(lo, hi))
     }
 }

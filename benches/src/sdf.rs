@@ -7,12 +7,11 @@ use crate::num::Num;
 /// A point (or vector) in 4D: x, y, z, w.
 pub type V4<T> = [T; 4];
 
-/// Axis numbers of the six rotation planes, as the language names them.
+/// The rotation planes the scenes use (the language has all six).
 #[derive(Clone, Copy, Debug)]
 pub enum Plane {
     Xz,
     Yw,
-    Xw,
 }
 
 impl Plane {
@@ -20,14 +19,12 @@ impl Plane {
         match self {
             Plane::Xz => (0, 2),
             Plane::Yw => (1, 3),
-            Plane::Xw => (0, 3),
         }
     }
     pub fn name(self) -> &'static str {
         match self {
             Plane::Xz => "xz",
             Plane::Yw => "yw",
-            Plane::Xw => "xw",
         }
     }
 }
@@ -44,7 +41,12 @@ pub struct Rotation {
 
 impl Rotation {
     pub fn new(plane: Plane, angle: f64) -> Rotation {
-        Rotation { plane, angle, cos: angle.cos() as f32, sin: angle.sin() as f32 }
+        Rotation {
+            plane,
+            angle,
+            cos: angle.cos() as f32,
+            sin: angle.sin() as f32,
+        }
     }
 
     /// Maps a point into the frame of a shape rotated by this rotation, i.e. applies the inverse:
@@ -61,9 +63,16 @@ impl Rotation {
     }
 }
 
+/// `[f(0), f(1), f(2), f(3)]`. Used instead of `std::array::from_fn`/`map`, which LLVM does not
+/// always inline into the AVX2 kernels (they then run out of line, and without AVX2).
+#[inline(always)]
+pub fn v4<T>(mut f: impl FnMut(usize) -> T) -> V4<T> {
+    [f(0), f(1), f(2), f(3)]
+}
+
 #[inline(always)]
 pub fn sub_const<T: Num>(p: &V4<T>, c: [f32; 4]) -> V4<T> {
-    std::array::from_fn(|i| p[i].clone() - T::from(c[i]))
+    v4(|i| p[i].clone() - T::from(c[i]))
 }
 
 #[inline(always)]
@@ -86,9 +95,9 @@ pub fn hypersphere<T: Num>(p: &V4<T>, r: f32) -> T {
 /// `hyperbox(h)`: with q = |p| - h, length(max(q, 0)) + min(max(q.x, q.y, q.z, q.w), 0).
 #[inline(always)]
 pub fn hyperbox<T: Num>(p: &V4<T>, h: [f32; 4]) -> T {
-    let q: V4<T> = std::array::from_fn(|i| p[i].abs() - T::from(h[i]));
+    let q: V4<T> = v4(|i| p[i].abs() - T::from(h[i]));
     let zero = T::from(0.0);
-    let outside: V4<T> = std::array::from_fn(|i| q[i].max(&zero));
+    let outside: V4<T> = v4(|i| q[i].max(&zero));
     length(&outside) + max4(&q).min(&zero)
 }
 
@@ -114,9 +123,9 @@ pub fn onion<T: Num>(d: T, thickness: f32) -> T {
 /// flipped) walks the coordinates, flipping the first one whose error is the maximum.
 #[inline(always)]
 pub fn d4_nearest<T: Num>(p: &V4<T>) -> V4<T> {
-    let r: V4<T> = std::array::from_fn(|i| p[i].round());
-    let e: V4<T> = std::array::from_fn(|i| p[i].clone() - r[i].clone());
-    let a: V4<T> = std::array::from_fn(|i| e[i].abs());
+    let r: V4<T> = v4(|i| p[i].round());
+    let e: V4<T> = v4(|i| p[i].clone() - r[i].clone());
+    let a: V4<T> = v4(|i| e[i].abs());
     let sum = r[0].clone() + r[1].clone() + r[2].clone() + r[3].clone();
     let odd = sum.clone() - T::from(2.0) * (sum * T::from(0.5)).floor();
     let worst = max4(&a);
@@ -139,7 +148,7 @@ pub fn d4_nearest<T: Num>(p: &V4<T>) -> V4<T> {
 #[inline(always)]
 pub fn tile_d4<T: Num>(p: &V4<T>) -> V4<T> {
     let c = d4_nearest(p);
-    std::array::from_fn(|i| p[i].clone() - c[i].clone())
+    v4(|i| p[i].clone() - c[i].clone())
 }
 
 #[cfg(test)]
@@ -172,7 +181,10 @@ mod tests {
             let got = d4_nearest(&p);
             let want = brute_d4(p);
             let dist = |c: [f32; 4]| (0..4).map(|i| (p[i] - c[i]).powi(2)).sum::<f32>();
-            assert!((dist(got) - dist(want)).abs() < 1e-5, "{p:?}: {got:?} vs {want:?}");
+            assert!(
+                (dist(got) - dist(want)).abs() < 1e-5,
+                "{p:?}: {got:?} vs {want:?}"
+            );
             assert_eq!((got.iter().sum::<f32>() as i64).rem_euclid(2), 0);
         }
     }

@@ -215,12 +215,19 @@ pub fn affine<T: Real>(v: [T; 4], r: [T; 5]) -> T {
     r[0] * v[0] + r[1] * v[1] + r[2] * v[2] + r[3] * v[3] + r[4]
 }
 
+/// |v + offset| - sub, with `r` = offset (4), sub.
 #[inline(always)]
-pub fn box_dist<T: Real>(v: [T; 4], h: [T; 4]) -> T {
+pub fn norm<T: Real>(v: [T; 4], r: [T; 5]) -> T {
+    length(std::array::from_fn(|i| v[i] + r[i])) - r[4]
+}
+
+/// The hyperbox distance at `v + offset` minus `sub`; `r` = offset (4), half (4), sub.
+#[inline(always)]
+pub fn box_dist<T: Real>(v: [T; 4], r: [T; 9]) -> T {
     let zero = T::of(0.0);
-    let q: [T; 4] = std::array::from_fn(|i| v[i].abs() - h[i]);
+    let q: [T; 4] = std::array::from_fn(|i| (v[i] + r[i]).abs() - r[4 + i]);
     let o = length(q.map(|x| x.max(zero)));
-    o + q[0].max(q[1]).max(q[2].max(q[3])).min(zero)
+    o + q[0].max(q[1]).max(q[2].max(q[3])).min(zero) - r[8]
 }
 
 /// Conway and Sloane's D4 decoder: round every coordinate; if the sum is odd, re-round the
@@ -269,9 +276,9 @@ pub fn node<T: Real>(n: &Node, get: impl Fn(Id) -> T, out: &mut [T; 8]) {
         Node::Un(op, a) => un(op, get(a)),
         Node::Bin(op, a, b) => bin(op, get(a), get(b)),
         Node::Select(c, a, b) => select(get(c), get(a), get(b)),
-        Node::Length(v) => length(v4(v)),
+        Node::Length(v, r) => norm(v4(v), r.map(k)),
         Node::Affine(v, r) => affine(v4(v), r.map(k)),
-        Node::BoxDist(v, h) => box_dist(v4(v), h.map(k)),
+        Node::BoxDist(v, r) => box_dist(v4(v), r.map(k)),
         Node::SMin(a, b, c) => smin(get(a), get(b), get(c)),
         Node::SMax(a, b, c) => -smin(-get(a), -get(b), get(c)),
         Node::D4(v) => {

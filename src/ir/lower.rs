@@ -186,7 +186,8 @@ pub fn lower(scene: &Scene) -> SceneIr {
         if o.material.is_air() {
             continue;
         }
-        let t = l.g.intern(Node::MinId(distance, nearest, o.distance, K::new(i as f64)));
+        let t =
+            l.g.intern(Node::MinId(distance, nearest, o.distance, K::new(i as f64)));
         distance = l.g.intern(Node::Proj(t, 0));
         nearest = l.g.intern(Node::Proj(t, 1));
     }
@@ -434,7 +435,8 @@ impl Lower<'_> {
         let mut l = a.lanes();
         let zero = self.k(0.0);
         l.resize(4, zero);
-        self.g.intern(Node::Length([l[0], l[1], l[2], l[3]]))
+        self.g
+            .intern(Node::Length([l[0], l[1], l[2], l[3]], [K::new(0.0); 5]))
     }
 
     fn sum(&mut self, xs: &[Id]) -> Id {
@@ -504,7 +506,7 @@ impl Lower<'_> {
         let zero = self.k(0.0);
         match s.kind {
             ShapeKind::Hypersphere => {
-                let len = self.g.intern(Node::Length(p));
+                let len = self.g.intern(Node::Length(p, [K::new(0.0); 5]));
                 let r = self.param(s, "radius", env);
                 self.bin(Bin::Sub, len, r)
             }
@@ -528,8 +530,11 @@ impl Lower<'_> {
                 let r = self.param(s, "radius", env);
                 match (s.param("half"), Self::const_param(s, "radius")) {
                     (Some(Value::Vec4(h)), Some(rc)) => {
-                        let h = h.map(|x| K::new((x - rc).max(0.0)));
-                        let d = self.g.intern(Node::BoxDist(p, h));
+                        let mut row = [K::new(0.0); 9];
+                        for i in 0..4 {
+                            row[4 + i] = K::new((h[i] - rc).max(0.0));
+                        }
+                        let d = self.g.intern(Node::BoxDist(p, row));
                         self.bin(Bin::Sub, d, r)
                     }
                     _ => {
@@ -615,7 +620,12 @@ impl Lower<'_> {
             ShapeKind::Translate => {
                 let local = match s.param("offset") {
                     Some(Value::Vec4(o)) => {
-                        let id = [[1.0, 0.0, 0.0, 0.0], [0.0, 1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]];
+                        let id = [
+                            [1.0, 0.0, 0.0, 0.0],
+                            [0.0, 1.0, 0.0, 0.0],
+                            [0.0, 0.0, 1.0, 0.0],
+                            [0.0, 0.0, 0.0, 1.0],
+                        ];
                         self.affine(p, id, o.map(|x| -x))
                     }
                     _ => {
@@ -642,9 +652,11 @@ impl Lower<'_> {
                             let (c, sn) = (self.un(Un::Cos, a), self.un(Un::Sin, a));
                             let (i, j) = plane.axes();
                             let mut out = q;
-                            let (ci, sj) = (self.bin(Bin::Mul, c, q[i]), self.bin(Bin::Mul, sn, q[j]));
+                            let (ci, sj) =
+                                (self.bin(Bin::Mul, c, q[i]), self.bin(Bin::Mul, sn, q[j]));
                             out[i] = self.bin(Bin::Add, ci, sj);
-                            let (cj, si) = (self.bin(Bin::Mul, c, q[j]), self.bin(Bin::Mul, sn, q[i]));
+                            let (cj, si) =
+                                (self.bin(Bin::Mul, c, q[j]), self.bin(Bin::Mul, sn, q[i]));
                             out[j] = self.bin(Bin::Sub, cj, si);
                             out
                         }
@@ -705,7 +717,7 @@ impl Lower<'_> {
         for (i, d) in ds.iter().enumerate() {
             pos[i] = self.bin(Bin::Max, *d, zero);
         }
-        let out = self.g.intern(Node::Length(pos));
+        let out = self.g.intern(Node::Length(pos, [K::new(0.0); 5]));
         let m = ds[1..].iter().fold(ds[0], |m, d| self.bin(Bin::Max, m, *d));
         let inside = self.bin(Bin::Min, m, zero);
         self.bin(Bin::Add, out, inside)

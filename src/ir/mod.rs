@@ -156,7 +156,11 @@ pub struct K(u64);
 
 impl K {
     pub fn new(x: f64) -> K {
-        K(if x.is_nan() { f64::NAN.to_bits() } else { x.to_bits() })
+        K(if x.is_nan() {
+            f64::NAN.to_bits()
+        } else {
+            x.to_bits()
+        })
     }
     pub fn get(self) -> f64 {
         f64::from_bits(self.0)
@@ -171,13 +175,14 @@ pub enum Node {
     Bin(Bin, Id, Id),
     /// `if c != 0 { a } else { b }`
     Select(Id, Id, Id),
-    /// sqrt(x^2 + y^2 + z^2 + w^2)
-    Length([Id; 4]),
+    /// |v + offset| - sub, with `r` = offset (4), sub: a translated sphere in one operation.
+    Length([Id; 4], [K; 5]),
     /// One row of an affine map: c . v + offset (`row` holds c0..c3, offset).
     Affine([Id; 4], [K; 5]),
-    /// The hyperbox distance with constant half-extents:
-    /// |max(q, 0)| + min(max_i q_i, 0) with q = |v| - half.
-    BoxDist([Id; 4], [K; 4]),
+    /// The hyperbox distance with constant half-extents, offset and rounding:
+    /// |max(q, 0)| + min(max_i q_i, 0) - sub with q = |v + offset| - half;
+    /// `r` = offset (4), half (4), sub.
+    BoxDist([Id; 4], [K; 9]),
     /// Polynomial smooth minimum with blend width `k` (plain min when k <= 0).
     SMin(Id, Id, Id),
     /// Smooth maximum: -smin(-a, -b, k).
@@ -204,7 +209,9 @@ impl Node {
             Node::Bin(_, a, b) => vec![a, b],
             Node::Select(a, b, c) | Node::SMin(a, b, c) | Node::SMax(a, b, c) => vec![a, b, c],
             Node::MinId(a, b, c, _) => vec![a, b, c],
-            Node::Length(v) | Node::Affine(v, _) | Node::BoxDist(v, _) | Node::D4(v) => v.to_vec(),
+            Node::Length(v, _) | Node::Affine(v, _) | Node::BoxDist(v, _) | Node::D4(v) => {
+                v.to_vec()
+            }
         }
     }
 
@@ -221,7 +228,7 @@ impl Node {
             Node::SMin(a, b, c) => Node::SMin(f(a), f(b), f(c)),
             Node::SMax(a, b, c) => Node::SMax(f(a), f(b), f(c)),
             Node::MinId(a, b, c, k) => Node::MinId(f(a), f(b), f(c), k),
-            Node::Length(v) => Node::Length(v4(v)),
+            Node::Length(v, r) => Node::Length(v4(v), r),
             Node::Affine(v, r) => Node::Affine(v4(v), r),
             Node::BoxDist(v, h) => Node::BoxDist(v4(v), h),
             Node::D4(v) => Node::D4(v4(v)),

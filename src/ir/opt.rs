@@ -47,6 +47,23 @@ fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
             match op {
                 Bin::Add if ca == Some(0.0) => return b,
                 Bin::Add | Bin::Sub if cb == Some(0.0) => return a,
+                // A constant subtracted from a fused distance joins it.
+                Bin::Sub
+                    if cb.is_some() && matches!(g.get(a), Node::Length(..) | Node::BoxDist(..)) =>
+                {
+                    let s = cb.unwrap_or(0.0);
+                    return g.intern(match g.get(a) {
+                        Node::Length(v, mut r) => {
+                            r[4] = K::new(r[4].get() + s);
+                            Node::Length(v, r)
+                        }
+                        Node::BoxDist(v, mut r) => {
+                            r[8] = K::new(r[8].get() + s);
+                            Node::BoxDist(v, r)
+                        }
+                        _ => unreachable!("matched above"),
+                    });
+                }
                 Bin::Sub if ca == Some(0.0) => return simplify(g, Node::Un(Un::Neg, b), t),
                 Bin::Mul if ca == Some(1.0) => return b,
                 Bin::Mul | Bin::Div if cb == Some(1.0) => return a,
@@ -84,9 +101,36 @@ fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
             return simplify(g, Node::Bin(op, a, b), t);
         }
         Node::Affine(v, row) => return affine(g, v, row.map(K::get)),
+        Node::Length(v, r) => {
+            let (v, off) = absorb_offsets(g, v, std::array::from_fn(|i| r[i].get()));
+            let mut r = r;
+            r[..4].copy_from_slice(&off.map(K::new));
+            return g.intern(Node::Length(v, r));
+        }
+        Node::BoxDist(v, r) => {
+            let (v, off) = absorb_offsets(g, v, std::array::from_fn(|i| r[i].get()));
+            let mut r = r;
+            r[..4].copy_from_slice(&off.map(K::new));
+            return g.intern(Node::BoxDist(v, r));
+        }
         _ => {}
     }
     g.intern(n)
+}
+
+/// Inputs of the form `x + c` feed `x` with the offset `c` added to the operation's own.
+fn absorb_offsets(g: &Graph, v: [Id; 4], off: [f64; 4]) -> ([Id; 4], [f64; 4]) {
+    let mut v = v;
+    let mut off = off;
+    for i in 0..4 {
+        if let Node::Bin(Bin::Add, x, c) = g.get(v[i])
+            && let Some(c) = g.constant(c)
+        {
+            v[i] = x;
+            off[i] += c;
+        }
+    }
+    (v, off)
 }
 
 /// A node as a linear combination of "atoms" (nodes that are not affine in their operands)
@@ -115,7 +159,8 @@ fn affine(g: &mut Graph, v: [Id; 4], row: [f64; 5]) -> Id {
     // Collect sum_i row_i * expand(v_i) over distinct atoms, in id order for a canonical form.
     let mut terms: Vec<(Id, f64)> = vec![];
     let mut offset = row[4];
-    let add = |terms: &mut Vec<(Id, f64)>, a: Id, c: f64| match terms.iter_mut().find(|t| t.0 == a) {
+    let add = |terms: &mut Vec<(Id, f64)>, a: Id, c: f64| match terms.iter_mut().find(|t| t.0 == a)
+    {
         Some(t) => t.1 += c,
         None => terms.push((a, c)),
     };
@@ -140,7 +185,7 @@ fn affine(g: &mut Graph, v: [Id; 4], row: [f64; 5]) -> Id {
     match terms[..] {
         [] => k(g, offset),
         [(a, c)] if c == 1.0 && offset == 0.0 => a,
-        [(a, c)] if c == 1.0 => {
+        [(a, 1.0)] => {
             let b = k(g, offset);
             g.intern(Node::Bin(Bin::Add, a, b))
         }

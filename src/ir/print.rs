@@ -30,9 +30,25 @@ pub fn node(g: &Graph, n: &Node) -> String {
         Node::Un(op, a) => format!("{} {}", op.name(), o(a)),
         Node::Bin(op, a, b) => format!("{} {} {}", op.name(), o(a), o(b)),
         Node::Select(c, a, b) => format!("select {} {} {}", o(c), o(a), o(b)),
-        Node::Length(v) => format!("length {}", list(g, &v)),
-        Node::Affine(v, r) => format!("affine {} [{} | {}]", list(g, &v), nums(&r[..4]), nums(&r[4..])),
-        Node::BoxDist(v, h) => format!("box {} half [{}]", list(g, &v), nums(&h)),
+        Node::Length(v, r) => format!(
+            "length {} + [{}] - {}",
+            list(g, &v),
+            nums(&r[..4]),
+            nums(&r[4..])
+        ),
+        Node::Affine(v, r) => format!(
+            "affine {} [{} | {}]",
+            list(g, &v),
+            nums(&r[..4]),
+            nums(&r[4..])
+        ),
+        Node::BoxDist(v, r) => format!(
+            "box {} + [{}] half [{}] - {}",
+            list(g, &v),
+            nums(&r[..4]),
+            nums(&r[4..8]),
+            nums(&r[8..])
+        ),
         Node::SMin(a, b, k) => format!("smin {} {} k {}", o(a), o(b), o(k)),
         Node::SMax(a, b, k) => format!("smax {} {} k {}", o(a), o(b), o(k)),
         Node::D4(v) => format!("d4 {}", list(g, &v)),
@@ -50,9 +66,9 @@ impl fmt::Display for SceneIr {
             .filter(|i| live[*i] && !matches!(g.get(Id(*i as u32)), Node::Const(_)))
             .count();
         writeln!(f, "ir: {shown} nodes")?;
-        for i in 0..g.len() {
+        for (i, _) in live.iter().enumerate().filter(|(_, l)| **l) {
             let n = g.get(Id(i as u32));
-            if live[i] && !matches!(n, Node::Const(_)) {
+            if !matches!(n, Node::Const(_)) {
                 writeln!(f, "  %{i} = {}", node(g, &n))?;
             }
         }
@@ -72,7 +88,11 @@ impl fmt::Display for SceneIr {
                 let mut s = String::new();
                 for (j, (name, ids)) in leaf.params.iter().enumerate() {
                     let sep = if j == 0 { "" } else { ", " };
-                    let v = if ids.len() == 1 { operand(g, ids[0]) } else { list(g, ids) };
+                    let v = if ids.len() == 1 {
+                        operand(g, ids[0])
+                    } else {
+                        list(g, ids)
+                    };
                     let _ = write!(s, "{sep}{name}: {v}");
                 }
                 writeln!(f, "  material {i}: {}({s})", leaf.kind.name())?;

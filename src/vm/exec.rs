@@ -115,10 +115,10 @@ fn run_code<T: Real, const N: usize>(code: &[Instr], r: &mut [[T; N]]) {
                     d[i] = eval::select(c[i], a[i], b[i]);
                 }
             }
-            Instr::Length { d, v: s } => {
-                let (d, s) = (v.d(d), s.map(|x| v.a(x)));
+            Instr::Length { d, v: s, r } => {
+                let (d, s, r) = (v.d(d), s.map(|x| v.a(x)), r.map(|x| T::of(x as f64)));
                 for i in 0..N {
-                    d[i] = eval::length([s[0][i], s[1][i], s[2][i], s[3][i]]);
+                    d[i] = eval::norm([s[0][i], s[1][i], s[2][i], s[3][i]], r);
                 }
             }
             Instr::Affine { d, v: s, r } => {
@@ -127,10 +127,10 @@ fn run_code<T: Real, const N: usize>(code: &[Instr], r: &mut [[T; N]]) {
                     d[i] = eval::affine([s[0][i], s[1][i], s[2][i], s[3][i]], r);
                 }
             }
-            Instr::Box { d, v: s, h } => {
-                let (d, s, h) = (v.d(d), s.map(|x| v.a(x)), h.map(|x| T::of(x as f64)));
+            Instr::Box { d, v: s, r } => {
+                let (d, s, r) = (v.d(d), s.map(|x| v.a(x)), r.map(|x| T::of(x as f64)));
                 for i in 0..N {
-                    d[i] = eval::box_dist([s[0][i], s[1][i], s[2][i], s[3][i]], h);
+                    d[i] = eval::box_dist([s[0][i], s[1][i], s[2][i], s[3][i]], r);
                 }
             }
             Instr::SMin { d, a, b, k } => {

@@ -62,6 +62,7 @@ impl Sub for Dual {
     }
 }
 
+#[allow(clippy::suspicious_arithmetic_impl)] // the product rule
 impl Mul for Dual {
     type Output = Dual;
     #[inline(always)]
@@ -73,6 +74,7 @@ impl Mul for Dual {
     }
 }
 
+#[allow(clippy::suspicious_arithmetic_impl)] // the quotient rule
 impl Div for Dual {
     type Output = Dual;
     #[inline(always)]

@@ -44,11 +44,19 @@ impl I {
         I::new(-self.hi, -self.lo)
     }
     fn mul(self, o: I) -> I {
-        let p = [self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi];
+        let p = [
+            self.lo * o.lo,
+            self.lo * o.hi,
+            self.hi * o.lo,
+            self.hi * o.hi,
+        ];
         if p.iter().any(|x| x.is_nan()) {
             return ALL;
         }
-        I::new(p.iter().cloned().fold(f32::INFINITY, f32::min), p.iter().cloned().fold(f32::NEG_INFINITY, f32::max))
+        I::new(
+            p.iter().cloned().fold(f32::INFINITY, f32::min),
+            p.iter().cloned().fold(f32::NEG_INFINITY, f32::max),
+        )
     }
     fn abs(self) -> I {
         if self.lo >= 0.0 {
@@ -157,37 +165,67 @@ pub fn eval(tape: &Tape, inputs: &[I; INPUTS]) -> Vec<I> {
                     g(a).union(g(b))
                 }]
             }
-            Instr::Length { v, .. } => {
-                let s = v4(v).iter().fold(I::point(0.0), |acc, x| acc.add(x.square()));
-                vec![un(Un::Sqrt, s)]
+            Instr::Length { v, r: row, .. } => {
+                let s = (0..4).fold(I::point(0.0), |acc, i| {
+                    acc.add(g(v[i]).add(I::point(row[i])).square())
+                });
+                vec![un(Un::Sqrt, s).add(I::point(-row[4]))]
             }
             Instr::Affine { v, r: row, .. } => {
-                let s = v4(v).iter().zip(&row).fold(I::point(row[4]), |acc, (x, c)| acc.add(x.mul(I::point(*c))));
+                let s = v4(v)
+                    .iter()
+                    .zip(&row)
+                    .fold(I::point(row[4]), |acc, (x, c)| acc.add(x.mul(I::point(*c))));
                 vec![s]
             }
-            Instr::Box { v, h, .. } => {
-                let q: Vec<I> = v4(v).iter().zip(&h).map(|(x, h)| x.abs().add(I::point(-h))).collect();
-                let o = q.iter().fold(I::point(0.0), |acc, x| acc.add(x.max(I::point(0.0)).square()));
+            Instr::Box { v, r: row, .. } => {
+                let q: Vec<I> = (0..4)
+                    .map(|i| {
+                        g(v[i])
+                            .add(I::point(row[i]))
+                            .abs()
+                            .add(I::point(-row[4 + i]))
+                    })
+                    .collect();
+                let o = q.iter().fold(I::point(0.0), |acc, x| {
+                    acc.add(x.max(I::point(0.0)).square())
+                });
                 let m = q[1..].iter().fold(q[0], |acc, x| acc.max(*x));
-                vec![un(Un::Sqrt, o).add(m.min(I::point(0.0)))]
+                vec![
+                    un(Un::Sqrt, o)
+                        .add(m.min(I::point(0.0)))
+                        .add(I::point(-row[8])),
+                ]
             }
             // Smooth min is nondecreasing in a and b and nonincreasing in k.
             Instr::SMin { a, b, k, .. } => {
                 let (a, b, k) = (g(a), g(b), g(k));
-                vec![I::new(eval::smin(a.lo, b.lo, k.hi), eval::smin(a.hi, b.hi, k.lo))]
+                vec![I::new(
+                    eval::smin(a.lo, b.lo, k.hi),
+                    eval::smin(a.hi, b.hi, k.lo),
+                )]
             }
             Instr::SMax { a, b, k, .. } => {
                 let (a, b, k) = (g(a), g(b), g(k));
-                vec![I::new(-eval::smin(-a.lo, -b.lo, k.lo), -eval::smin(-a.hi, -b.hi, k.hi))]
+                vec![I::new(
+                    -eval::smin(-a.lo, -b.lo, k.lo),
+                    -eval::smin(-a.hi, -b.hi, k.hi),
+                )]
             }
             Instr::D4 { v, .. } => {
                 let v = v4(v);
                 if v.iter().all(|x| x.is_point()) {
-                    eval::d4(v.map(|x| x.lo)).iter().map(|x| I::point(*x)).collect()
+                    eval::d4(v.map(|x| x.lo))
+                        .iter()
+                        .map(|x| I::point(*x))
+                        .collect()
                 } else {
                     // Offsets stay inside the Voronoi cell (|x_i| <= 1); points are near.
                     let mut out = vec![I::new(-1.0, 1.0); 4];
-                    out.extend(v.iter().map(|x| I::new(x.lo.floor() - 1.0, x.hi.ceil() + 1.0)));
+                    out.extend(
+                        v.iter()
+                            .map(|x| I::new(x.lo.floor() - 1.0, x.hi.ceil() + 1.0)),
+                    );
                     out
                 }
             }
@@ -197,7 +235,10 @@ pub fn eval(tape: &Tape, inputs: &[I; INPUTS]) -> Vec<I> {
                 if clo == chi {
                     vec![a.add(I::point(-clo)), I::point(clo)]
                 } else {
-                    vec![I::new((-0.5f32).min(a.lo - clo), 0.5f32.max(a.hi - chi)), I::new(clo, chi)]
+                    vec![
+                        I::new((-0.5f32).min(a.lo - clo), 0.5f32.max(a.hi - chi)),
+                        I::new(clo, chi),
+                    ]
                 }
             }
             Instr::MinId { a, b, c, id, .. } => {

@@ -55,11 +55,7 @@ impl Program {
                 material: Tape::compile(&format!("{} material", o.name), g, &o.material.roots()),
             })
             .collect();
-        Program {
-            ir,
-            scene,
-            objects,
-        }
+        Program { ir, scene, objects }
     }
 
     pub fn tapes(&self) -> impl Iterator<Item = &Tape> {
@@ -70,7 +66,13 @@ impl Program {
 
 /// Evaluate a tape at one point (the `N = 1` path of the same interpreter); returns every
 /// output.
-pub fn eval_point(tape: &Tape, regs: &mut Regs<f32, 1>, p: [f32; 4], n: [f32; 4], t: f32) -> Vec<f32> {
+pub fn eval_point(
+    tape: &Tape,
+    regs: &mut Regs<f32, 1>,
+    p: [f32; 4],
+    n: [f32; 4],
+    t: f32,
+) -> Vec<f32> {
     regs.fit(tape);
     for i in 0..4 {
         regs.input(Var::POINT[i].index())[0] = p[i];
@@ -82,7 +84,13 @@ pub fn eval_point(tape: &Tape, regs: &mut Regs<f32, 1>, p: [f32; 4], n: [f32; 4]
 }
 
 /// Evaluate output 0 of a tape over points in structure-of-arrays form, `LANES` at a time.
-pub fn eval_slices(tape: &Tape, regs: &mut Regs<f32, LANES>, p: [&[f32]; 4], t: f32, out: &mut [f32]) {
+pub fn eval_slices(
+    tape: &Tape,
+    regs: &mut Regs<f32, LANES>,
+    p: [&[f32]; 4],
+    t: f32,
+    out: &mut [f32],
+) {
     regs.fit(tape);
     *regs.input(Var::T.index()) = [t; LANES];
     let n = out.len();
@@ -101,11 +109,16 @@ pub fn eval_slices(tape: &Tape, regs: &mut Regs<f32, LANES>, p: [&[f32]; 4], t: 
 
 /// Value and gradient (with respect to the point) of output 0 of a tape at each of up to `N`
 /// points, in one forward-mode pass.
-pub fn gradient<const N: usize>(tape: &Tape, regs: &mut Regs<Dual, N>, p: &[[f32; 4]], t: f32) -> Vec<Dual> {
+pub fn gradient<const N: usize>(
+    tape: &Tape,
+    regs: &mut Regs<Dual, N>,
+    p: &[[f32; 4]],
+    t: f32,
+) -> Vec<Dual> {
     regs.fit(tape);
     for (lane, q) in p.iter().enumerate() {
-        for axis in 0..4 {
-            regs.input(Var::POINT[axis].index())[lane] = Dual::var(q[axis], axis);
+        for (axis, x) in q.iter().enumerate() {
+            regs.input(Var::POINT[axis].index())[lane] = Dual::var(*x, axis);
         }
         regs.input(Var::T.index())[lane] = Dual { v: t, g: [0.0; 4] };
     }

@@ -8,22 +8,86 @@ pub type Reg = u16;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Instr {
-    Const { d: Reg, k: f32 },
-    Un { op: Un, d: Reg, a: Reg },
-    Bin { op: Bin, d: Reg, a: Reg, b: Reg },
+    Const {
+        d: Reg,
+        k: f32,
+    },
+    Un {
+        op: Un,
+        d: Reg,
+        a: Reg,
+    },
+    Bin {
+        op: Bin,
+        d: Reg,
+        a: Reg,
+        b: Reg,
+    },
     /// `a op k`
-    BinImm { op: Bin, d: Reg, a: Reg, k: f32 },
+    BinImm {
+        op: Bin,
+        d: Reg,
+        a: Reg,
+        k: f32,
+    },
     /// `k op b`, for operations that do not commute.
-    ImmBin { op: Bin, d: Reg, k: f32, b: Reg },
-    Select { d: Reg, c: Reg, a: Reg, b: Reg },
-    Length { d: Reg, v: [Reg; 4] },
-    Affine { d: Reg, v: [Reg; 4], r: [f32; 5] },
-    Box { d: Reg, v: [Reg; 4], h: [f32; 4] },
-    SMin { d: Reg, a: Reg, b: Reg, k: Reg },
-    SMax { d: Reg, a: Reg, b: Reg, k: Reg },
-    D4 { d: [Reg; 8], v: [Reg; 4] },
-    Rep { d: [Reg; 2], a: Reg, l: f32 },
-    MinId { d: [Reg; 2], a: Reg, b: Reg, c: Reg, id: f32 },
+    ImmBin {
+        op: Bin,
+        d: Reg,
+        k: f32,
+        b: Reg,
+    },
+    Select {
+        d: Reg,
+        c: Reg,
+        a: Reg,
+        b: Reg,
+    },
+    /// |v + r[0..4]| - r[4]
+    Length {
+        d: Reg,
+        v: [Reg; 4],
+        r: [f32; 5],
+    },
+    Affine {
+        d: Reg,
+        v: [Reg; 4],
+        r: [f32; 5],
+    },
+    /// The hyperbox distance at v + r[0..4] with half-extents r[4..8], minus r[8].
+    Box {
+        d: Reg,
+        v: [Reg; 4],
+        r: [f32; 9],
+    },
+    SMin {
+        d: Reg,
+        a: Reg,
+        b: Reg,
+        k: Reg,
+    },
+    SMax {
+        d: Reg,
+        a: Reg,
+        b: Reg,
+        k: Reg,
+    },
+    D4 {
+        d: [Reg; 8],
+        v: [Reg; 4],
+    },
+    Rep {
+        d: [Reg; 2],
+        a: Reg,
+        l: f32,
+    },
+    MinId {
+        d: [Reg; 2],
+        a: Reg,
+        b: Reg,
+        c: Reg,
+        id: f32,
+    },
 }
 
 impl Instr {
@@ -130,14 +194,11 @@ impl<'g> Emit<'g> {
     fn new(g: &'g Graph, roots: &[Id]) -> Emit<'g> {
         let live = g.live(roots);
         let mut needs_reg = vec![false; g.len()];
-        for i in 0..g.len() {
-            if !live[i] {
-                continue;
-            }
+        for (i, _) in live.iter().enumerate().filter(|(_, l)| **l) {
             let n = g.get(Id(i as u32));
             let ops = n.children();
-            let both_const = matches!(n, Node::Bin(..))
-                && ops.iter().all(|c| g.constant(*c).is_some());
+            let both_const =
+                matches!(n, Node::Bin(..)) && ops.iter().all(|c| g.constant(*c).is_some());
             for (j, c) in ops.iter().enumerate() {
                 if g.constant(*c).is_some() && (!takes_imm(&n, j) || (both_const && j == 1)) {
                     needs_reg[c.0 as usize] = true;
@@ -215,9 +276,9 @@ impl<'g> Emit<'g> {
         }
         let mut inputs = vec![];
         for v in Var::ALL {
-            if let Some(id) = (0..self.g.len()).find(|i| {
-                self.live[*i] && self.g.get(Id(*i as u32)) == Node::Var(v)
-            }) {
+            if let Some(id) = (0..self.g.len())
+                .find(|i| self.live[*i] && self.g.get(Id(*i as u32)) == Node::Var(v))
+            {
                 self.reg[id][0] = v.index() as Reg;
                 inputs.push(v);
             }
@@ -269,16 +330,55 @@ impl<'g> Emit<'g> {
                 (_, Slot::Imm(k)) => Instr::BinImm { op, d, a: r(a), k },
                 (Slot::Imm(k), _) if op.commutes() => Instr::BinImm { op, d, a: r(b), k },
                 (Slot::Imm(k), _) => Instr::ImmBin { op, d, k, b: r(b) },
-                _ => Instr::Bin { op, d, a: r(a), b: r(b) },
+                _ => Instr::Bin {
+                    op,
+                    d,
+                    a: r(a),
+                    b: r(b),
+                },
             },
-            Node::Select(c, a, b) => Instr::Select { d, c: r(c), a: r(a), b: r(b) },
-            Node::Length(v) => Instr::Length { d, v: v4(v) },
-            Node::Affine(v, row) => Instr::Affine { d, v: v4(v), r: row.map(f) },
-            Node::BoxDist(v, h) => Instr::Box { d, v: v4(v), h: h.map(f) },
-            Node::SMin(a, b, k) => Instr::SMin { d, a: r(a), b: r(b), k: r(k) },
-            Node::SMax(a, b, k) => Instr::SMax { d, a: r(a), b: r(b), k: r(k) },
-            Node::D4(v) => Instr::D4 { d: self.reg[i], v: v4(v) },
-            Node::Rep(a, l) => Instr::Rep { d: [self.reg[i][0], self.reg[i][1]], a: r(a), l: f(l) },
+            Node::Select(c, a, b) => Instr::Select {
+                d,
+                c: r(c),
+                a: r(a),
+                b: r(b),
+            },
+            Node::Length(v, row) => Instr::Length {
+                d,
+                v: v4(v),
+                r: row.map(f),
+            },
+            Node::Affine(v, row) => Instr::Affine {
+                d,
+                v: v4(v),
+                r: row.map(f),
+            },
+            Node::BoxDist(v, row) => Instr::Box {
+                d,
+                v: v4(v),
+                r: row.map(f),
+            },
+            Node::SMin(a, b, k) => Instr::SMin {
+                d,
+                a: r(a),
+                b: r(b),
+                k: r(k),
+            },
+            Node::SMax(a, b, k) => Instr::SMax {
+                d,
+                a: r(a),
+                b: r(b),
+                k: r(k),
+            },
+            Node::D4(v) => Instr::D4 {
+                d: self.reg[i],
+                v: v4(v),
+            },
+            Node::Rep(a, l) => Instr::Rep {
+                d: [self.reg[i][0], self.reg[i][1]],
+                a: r(a),
+                l: f(l),
+            },
             Node::MinId(a, b, c, id) => Instr::MinId {
                 d: [self.reg[i][0], self.reg[i][1]],
                 a: r(a),
