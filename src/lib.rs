@@ -4,11 +4,11 @@
 
 pub mod check;
 pub mod diagnostic;
+pub mod ir;
+pub mod render;
 pub mod source;
 pub mod syntax;
-pub mod ir;
 pub mod vm;
-pub mod render;
 
 use diagnostic::Diagnostic;
 use source::SourceMap;
