@@ -1,0 +1,145 @@
+//! Sampling building blocks for light transport in four dimensions.
+//!
+//! Every formula here is the one in the physics design notes (`PHYSICS.md`); the 3D habits that
+//! are wrong in 4D are called out where they would creep in. Samplers take their
+//! random numbers as a `DVec3` of independent uniforms in `[0, 1)` so that they stay
+//! deterministic functions, easy to test and to feed with quasi-random points.
+//!
+//! Local frames put the surface normal (or a lobe's axis) on the **fourth axis, e4 = `w`**: a
+//! direction `(x, y, z, w)` in a local frame has `cos(theta) = w`, and `(x, y, z)` is its
+//! tangential part.
+
+use glam::{DVec3, DVec4};
+use std::f64::consts::PI;
+
+/// Volume of the unit 3-ball, `4 pi / 3`: the projected solid angle of the hemisphere of S^3,
+/// i.e. the integral of `cos(theta) d(omega)` over it (pi is the 3D value).
+pub const BALL3_VOLUME: f64 = 4.0 * PI / 3.0;
+
+/// Area of the unit 3-sphere S^3, `2 pi^2`.
+pub const SPHERE3_AREA: f64 = 2.0 * PI * PI;
+
+/// A direction uniform on the unit 2-sphere S^2 (`z = 1 - 2 u1`, azimuth `2 pi u2`, by
+/// Archimedes' hat-box theorem).
+pub fn uniform_s2(u1: f64, u2: f64) -> DVec3 {
+    let z = 1.0 - 2.0 * u1;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * u2).sin_cos();
+    DVec3::new(r * c, r * s, z)
+}
+
+/// A point uniform in the unit 3-ball: radius `u.x^(1/3)` (the volume below radius r grows as
+/// r^3; drawing the radius as `u.x` would crowd the centre), direction uniform on S^2.
+pub fn uniform_ball3(u: DVec3) -> DVec3 {
+    u.x.cbrt() * uniform_s2(u.y, u.z)
+}
+
+/// A direction uniform on S^3, pdf `1 / (2 pi^2)` ([`SPHERE3_AREA`]).
+///
+/// Exact and cheaper than normalising four Gaussians: viewing S^3 as the unit sphere of C^2,
+/// `(|z1|^2, arg z1, arg z2)` are independent and uniform on `[0,1] x [0,2pi) x [0,2pi)` under
+/// the uniform measure.
+pub fn uniform_s3(u: DVec3) -> DVec4 {
+    let r1 = u.x.sqrt();
+    let r2 = (1.0 - u.x).max(0.0).sqrt();
+    let (s1, c1) = (2.0 * PI * u.y).sin_cos();
+    let (s2, c2) = (2.0 * PI * u.z).sin_cos();
+    DVec4::new(r1 * c1, r1 * s1, r2 * c2, r2 * s2)
+}
+
+/// Cosine-weighted direction on the hemisphere `w > 0` of a local frame (normal = e4), by
+/// Malley's lift: a point uniform in the unit 3-ball lifted to `w = sqrt(1 - |p|^2)`. The
+/// projection of `cos(theta) d(omega)` onto the equatorial 3-ball is its volume element, so the
+/// pdf is [`cosine_hemisphere_pdf`].
+pub fn cosine_hemisphere(u: DVec3) -> DVec4 {
+    let p = uniform_ball3(u);
+    DVec4::new(p.x, p.y, p.z, (1.0 - p.length_squared()).max(0.0).sqrt())
+}
+
+/// Pdf (per unit solid angle on S^3) of [`cosine_hemisphere`]: `3 cos(theta) / (4 pi)`,
+/// zero below the horizon.
+pub fn cosine_hemisphere_pdf(cos_theta: f64) -> f64 {
+    cos_theta.max(0.0) / BALL3_VOLUME
+}
+
+/// Mirror reflection of a *travelling* direction `d` about the plane with unit normal `n`:
+/// `d - 2 (d.n) n`. For directions that point away from the surface (as the BSDFs use), the
+/// mirrored direction of `wi` is `-reflect(wi, n)`.
+pub fn reflect(d: DVec4, n: DVec4) -> DVec4 {
+    d - 2.0 * d.dot(n) * n
+}
+
+/// Refraction of a *travelling* direction `d` (unit, `n.d < 0`) through an interface with unit
+/// normal `n` facing the incoming side, `eta = eta_i / eta_t`. Valid in any dimension.
+/// `None` on total internal reflection.
+pub fn refract(d: DVec4, n: DVec4, eta: f64) -> Option<DVec4> {
+    let c = -d.dot(n);
+    let k = 1.0 - eta * eta * (1.0 - c * c);
+    if k < 0.0 {
+        return None;
+    }
+    Some(eta * d + (eta * c - k.sqrt()) * n)
+}
+
+/// Exact unpolarised Fresnel reflectance of a dielectric interface, `(R_s + R_p) / 2`, for light
+/// arriving at `cos_i = |cos(theta_i)|` from the side of index `eta_i` towards `eta_t`.
+/// Returns 1 under total internal reflection. (Schlick's approximation is off by 0.04-0.06 at
+/// eta 1.5, and wrong above the critical angle unless it uses `cos(theta_t)`.)
+pub fn fresnel_dielectric(cos_i: f64, eta_i: f64, eta_t: f64) -> f64 {
+    if eta_i == eta_t {
+        return 0.0;
+    }
+    let cos_i = cos_i.clamp(0.0, 1.0);
+    let sin_t2 = (eta_i / eta_t).powi(2) * (1.0 - cos_i * cos_i);
+    if sin_t2 >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin_t2).sqrt();
+    let r_s = (eta_i * cos_i - eta_t * cos_t) / (eta_i * cos_i + eta_t * cos_t);
+    let r_p = (eta_t * cos_i - eta_i * cos_t) / (eta_t * cos_i + eta_i * cos_t);
+    0.5 * (r_s * r_s + r_p * r_p)
+}
+
+/// An orthonormal frame whose local e4 axis is the unit vector `n` (the normal, or a lobe axis).
+///
+/// The map is the Householder reflection that swaps e4 and `n`, signed so that its vector `v`
+/// never vanishes: if `n.w > 0` use `v = n + e4` and `x -> -H x`, else `v = n - e4` and `x -> H x`,
+/// with `H = I - 2 v v^T / (v^T v)`. Then `|v|^2 >= 2`, so there is no cancellation when `n` is
+/// near e4 (the black-wall artefact of the one-branch version). The map is symmetric and its own
+/// inverse, so [`Frame::to_local`] and [`Frame::to_world`] are the same operation. It is improper
+/// (determinant -1), which is harmless for lobes that are isotropic about the normal: every lobe
+/// in this renderer is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Frame {
+    v: DVec4,
+    /// `2 / (v.v)`.
+    scale: f64,
+    /// -1 for `-H`, +1 for `H`.
+    sign: f64,
+}
+
+impl Frame {
+    /// The frame with local e4 mapped to the unit vector `n`.
+    pub fn new(n: DVec4) -> Frame {
+        let (v, sign) = if n.w > 0.0 {
+            (n + DVec4::W, -1.0)
+        } else {
+            (n - DVec4::W, 1.0)
+        };
+        Frame {
+            v,
+            scale: 2.0 / v.length_squared(),
+            sign,
+        }
+    }
+
+    /// Local coordinates (normal = e4) to world coordinates.
+    pub fn to_world(&self, local: DVec4) -> DVec4 {
+        self.sign * (local - self.scale * self.v.dot(local) * self.v)
+    }
+
+    /// World coordinates to local coordinates (normal = e4); the map is an involution.
+    pub fn to_local(&self, world: DVec4) -> DVec4 {
+        self.to_world(world)
+    }
+}
