@@ -677,6 +677,11 @@ fn chi2_henyey_greenstein() {
 
 #[test]
 fn henyey_greenstein_theta_distribution() {
+    // |g| = 1 would be a delta: clamped. Tiny |g| is the isotropic lobe.
+    assert_eq!(HenyeyGreenstein::new(1.5).g(), HenyeyGreenstein::G_MAX);
+    assert_eq!(HenyeyGreenstein::new(-1.0).g(), -HenyeyGreenstein::G_MAX);
+    let nearly_isotropic = HenyeyGreenstein::new(0.5 * HenyeyGreenstein::ISOTROPIC_BELOW);
+    assert_eq!(nearly_isotropic.eval_cos(1.0), 1.0 / (2.0 * PI * PI));
     for g in [-0.95, -0.7, -1e-3, 1e-3, 0.3, 0.9, 0.99] {
         let hg = HenyeyGreenstein::new(g);
         // The closed-form CDF is the integral of the theta density, reaching 1 at pi.
