@@ -339,26 +339,19 @@ impl<'g> Reference<'g> {
 }
 
 /// Evaluate a node whose operands are all constants, or `None` if it is not foldable.
+/// A projection folds when the tuple it reads does.
 pub fn fold(g: &Graph, n: &Node) -> Option<f64> {
-    match *n {
-        Node::Var(_) | Node::Const(_) => None,
-        Node::Proj(a, j) => {
-            let t = g.get(a);
-            let args: Option<Vec<f64>> = t.children().iter().map(|c| g.constant(*c)).collect();
-            args?;
-            let mut out = [0.0; 8];
-            node(&t, |c| g.constant(c).unwrap_or(f64::NAN), &mut out);
-            Some(out[j as usize])
-        }
-        n if n.arity() > 1 => None,
-        n => {
-            let args: Option<Vec<f64>> = n.children().iter().map(|c| g.constant(*c)).collect();
-            args?;
-            let mut out = [0.0; 8];
-            node(&n, |c| g.constant(c).unwrap_or(f64::NAN), &mut out);
-            Some(out[0])
-        }
-    }
+    let (t, j) = match *n {
+        Node::Var(_) | Node::Const(_) => return None,
+        Node::Proj(a, j) => (g.get(a), j as usize),
+        n if n.arity() > 1 => return None,
+        n => (n, 0),
+    };
+    let args: Option<Vec<f64>> = t.children().iter().map(|c| g.constant(*c)).collect();
+    args?;
+    let mut out = [0.0; 8];
+    node(&t, |c| g.constant(c).unwrap_or(f64::NAN), &mut out);
+    Some(out[j])
 }
 
 /// Bind inputs by name for callers that have a point, a normal and a frame variable.
