@@ -5,6 +5,7 @@
 pub mod check;
 pub mod diagnostic;
 pub mod ir;
+pub mod output;
 pub mod render;
 pub mod source;
 pub mod syntax;

@@ -6,6 +6,8 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod render_command;
+
 #[derive(Parser)]
 #[command(
     name = "hyperslice",
@@ -34,6 +36,8 @@ enum Command {
         #[arg(required = true)]
         files: Vec<PathBuf>,
     },
+    /// Render a scene to an animated GIF, PNG frames or EXR frames.
+    Render(render_command::RenderArgs),
     /// Compile a scene and print one stage of it.
     Compile {
         file: PathBuf,
@@ -101,6 +105,7 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             }
         }
+        Command::Render(args) => render_command::run(args, color),
         Command::Compile { file, emit } => {
             let c = Compilation::from_path(&file);
             eprint!("{}", c.render_diagnostics(color));

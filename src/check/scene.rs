@@ -42,6 +42,8 @@ pub struct RenderSettings {
     pub quality: Quality,
     pub fps: f64,
     pub exposure: f64,
+    /// Worker threads; 0 uses every core.
+    pub threads: u32,
 }
 
 impl Default for RenderSettings {
@@ -59,13 +61,14 @@ impl Default for RenderSettings {
             quality: Quality::Custom,
             fps: 20.0,
             exposure: 1.0,
+            threads: 0,
         }
     }
 }
 
 impl Quality {
     /// The preset's samples, bounces, marching epsilon and step limit.
-    fn apply(self, r: &mut RenderSettings) {
+    pub fn apply(self, r: &mut RenderSettings) {
         let (spp, bounces, eps, steps) = match self {
             Quality::Draft => (4, 4, 1e-3, 200),
             Quality::Preview => (16, 6, 1e-4, 1000),
@@ -357,7 +360,7 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                     render.seed = x;
                 }
                 if let Some(x) = u(ck, "threads", 0.0, 1024.0) {
-                    let _ = x; // accepted for the command line's sake; the renderer decides threads
+                    render.threads = x as u32;
                 }
                 if let Some(x) = s
                     .get("epsilon")

@@ -1,0 +1,25 @@
+//! Linear 32-bit float RGB OpenEXR, scaled by the exposure but not tone-mapped.
+
+use std::io::{Seek, Write};
+
+use exr::prelude::*;
+
+use super::HdrImage;
+
+pub(crate) fn encode<W: Write + Seek>(
+    w: W,
+    img: &HdrImage,
+    exposure: f64,
+) -> exr::error::Result<()> {
+    let exposure = exposure as f32;
+    let width = img.width;
+    let channels = SpecificChannels::rgb(|Vec2(x, y): Vec2<usize>| {
+        let [r, g, b] = img.data[y * width + x];
+        (r * exposure, g * exposure, b * exposure)
+    });
+    // Frames are already encoded in parallel; exr's own pool would spawn threads per frame.
+    Image::from_channels((img.width, img.height), channels)
+        .write()
+        .non_parallel()
+        .to_buffered(w)
+}

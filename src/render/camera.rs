@@ -1,0 +1,51 @@
+//! The camera of one frame: a position and four orthonormal axes in 4D. Primary rays leave the
+//! position through a virtual screen in the 3D subspace spanned by the right, up and forward
+//! axes, so every frame images one 3D slice of the 4D world.
+
+use crate::check::Camera;
+use crate::check::value::Plane;
+use crate::ir::lower::rotation;
+use glam::DVec4;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameCamera {
+    pub position: DVec4,
+    /// Right, up, forward and the fourth axis (the slice's normal).
+    pub axes: [DVec4; 4],
+    /// `tan(fov / 2)`: half the screen's width at distance 1.
+    pub half_width: f64,
+}
+
+impl FrameCamera {
+    /// The camera at animation time `t` (0 on the first frame, 1 on the last), given the
+    /// `look` rotations' angles at that time. The position moves linearly from `from` to `to`.
+    pub fn new(camera: &Camera, t: f64, look: &[(Plane, f64)]) -> FrameCamera {
+        let from = DVec4::from_array(camera.from);
+        let to = DVec4::from_array(camera.to);
+        // Each rotation turns the axes in order, the first applied first.
+        let axes = [DVec4::X, DVec4::Y, DVec4::Z, DVec4::W].map(|mut v| {
+            for &(plane, angle) in look {
+                let m = rotation(plane, angle);
+                let a = v.to_array();
+                v = DVec4::from_array(std::array::from_fn(|r| {
+                    (0..4).map(|c| m[r][c] * a[c]).sum::<f64>()
+                }));
+            }
+            v
+        });
+        FrameCamera {
+            position: from + (to - from) * t,
+            axes,
+            half_width: (camera.fov / 2.0).tan(),
+        }
+    }
+
+    /// The unit direction through the screen point `(sx, sy)`, with `(0, 0)` the top-left and
+    /// `(width, height)` the bottom-right corner, in pixels.
+    pub fn direction(&self, sx: f64, sy: f64, width: u32, height: u32) -> DVec4 {
+        let (w, h) = (width as f64, height as f64);
+        let x = (2.0 * sx / w - 1.0) * self.half_width;
+        let y = (1.0 - 2.0 * sy / h) * self.half_width * h / w;
+        (self.axes[2] + x * self.axes[0] + y * self.axes[1]).normalize()
+    }
+}

@@ -1,0 +1,87 @@
+//! The film of one frame: the mean radiance of every pixel, its spread, and the first-hit
+//! buffers that guide denoising (albedo, 4D normal, 4D position, depth).
+
+use crate::output::HdrImage;
+use glam::{DVec3, DVec4};
+
+/// The sums one pixel accumulates over its samples.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSums {
+    pub radiance: DVec3,
+    /// Sum of squared radiance, for the per-pixel standard error.
+    pub radiance_sq: DVec3,
+    pub albedo: DVec3,
+    pub normal: DVec4,
+    pub position: DVec4,
+    pub depth: f64,
+    pub samples: u32,
+}
+
+impl PixelSums {
+    pub fn add_radiance(&mut self, l: DVec3) {
+        self.radiance += l;
+        self.radiance_sq += l * l;
+        self.samples += 1;
+    }
+}
+
+/// One rendered frame, every buffer holding per-pixel means, row-major from the top left.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Film {
+    pub width: usize,
+    pub height: usize,
+    pub color: Vec<DVec3>,
+    /// Standard error of each pixel's mean radiance.
+    pub std_error: Vec<DVec3>,
+    pub albedo: Vec<DVec3>,
+    pub normal: Vec<DVec4>,
+    pub position: Vec<DVec4>,
+    pub depth: Vec<f64>,
+}
+
+impl Film {
+    pub fn new(width: usize, height: usize) -> Film {
+        let n = width * height;
+        Film {
+            width,
+            height,
+            color: vec![DVec3::ZERO; n],
+            std_error: vec![DVec3::ZERO; n],
+            albedo: vec![DVec3::ZERO; n],
+            normal: vec![DVec4::ZERO; n],
+            position: vec![DVec4::ZERO; n],
+            depth: vec![0.0; n],
+        }
+    }
+
+    /// Store a pixel's means from its sums.
+    pub fn set(&mut self, i: usize, s: &PixelSums) {
+        let n = s.samples.max(1) as f64;
+        let mean = s.radiance / n;
+        self.color[i] = mean;
+        let var = (s.radiance_sq / n - mean * mean).max(DVec3::ZERO);
+        self.std_error[i] = if s.samples > 1 {
+            (var / (n - 1.0)).map(f64::sqrt)
+        } else {
+            DVec3::ZERO
+        };
+        self.albedo[i] = s.albedo / n;
+        self.normal[i] = s.normal / n;
+        self.position[i] = s.position / n;
+        self.depth[i] = s.depth / n;
+    }
+
+    /// The radiance as a linear-HDR image for output.
+    pub fn image(&self) -> HdrImage {
+        HdrImage {
+            width: self.width,
+            height: self.height,
+            data: self.color.iter().map(|c| c.as_vec3().to_array()).collect(),
+        }
+    }
+
+    /// Mean radiance over all pixels.
+    pub fn mean(&self) -> DVec3 {
+        self.color.iter().sum::<DVec3>() / self.color.len().max(1) as f64
+    }
+}

@@ -1,0 +1,507 @@
+//! The path tracer: unidirectional paths with BSDF and phase-function sampling, a wavefront
+//! at a time. All paths of a batch march together through the VM; hits are then grouped by
+//! object so normals (forward-mode gradients) and material maps also run as packets.
+
+use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
+use super::film::PixelSums;
+use super::frame::FrameScene;
+use super::march::{Hit, Limits, Marcher, Ray, epsilon_at};
+use super::material::{Medium, Surface};
+use super::phase::{HenyeyGreenstein, PhaseFunction};
+use super::sampling::Frame;
+use crate::ir::Var;
+use crate::vm::{Dual, LANES, Regs, run};
+use glam::{DVec3, DVec4};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg32;
+
+/// The settings of the light transport.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settings {
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Most scattering events of one path.
+    pub bounces: u32,
+    pub limits: Limits,
+    pub seed: u64,
+    /// Russian roulette from this many bounces on (`u32::MAX`: never).
+    pub roulette_from: u32,
+    /// Rays that get this far without a hit have left the scene.
+    pub far: f64,
+}
+
+/// Counts for the summary.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Stats {
+    pub samples: u64,
+    /// Distance evaluations while marching.
+    pub evaluations: u64,
+    /// Ray segments that ran out of marching steps (their paths end there).
+    pub out_of_steps: u64,
+    /// Samples whose radiance came out NaN or infinite, dropped from the image.
+    pub dropped: u64,
+}
+
+impl std::ops::AddAssign for Stats {
+    fn add_assign(&mut self, o: Stats) {
+        self.samples += o.samples;
+        self.evaluations += o.evaluations;
+        self.out_of_steps += o.out_of_steps;
+        self.dropped += o.dropped;
+    }
+}
+
+/// A rectangle of pixels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Tile {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+/// Nested media a path is inside, innermost last.
+const MAX_NESTING: usize = 4;
+/// Null-surface crossings (fog and air boundaries) a path may make; they are not bounces.
+const MAX_CROSSINGS: u32 = 256;
+/// Paths in flight per batch.
+const BATCH: usize = 4096;
+
+#[derive(Clone, Copy, Debug)]
+pub struct Stack {
+    entries: [(u32, Medium); MAX_NESTING],
+    len: usize,
+}
+
+impl Stack {
+    const EMPTY: Stack = Stack {
+        entries: [(0, Medium::VACUUM); MAX_NESTING],
+        len: 0,
+    };
+
+    fn medium(&self, outside: Medium) -> Medium {
+        if self.len == 0 {
+            outside
+        } else {
+            self.entries[self.len - 1].1
+        }
+    }
+
+    /// Enter `object`; past the nesting limit the path keeps its current medium.
+    fn push(&mut self, object: u32, m: Medium) {
+        if self.len < MAX_NESTING {
+            self.entries[self.len] = (object, m);
+            self.len += 1;
+        }
+    }
+
+    /// Leave `object`, wherever it is on the stack.
+    fn remove(&mut self, object: u32) {
+        if let Some(i) = self.entries[..self.len].iter().rposition(|e| e.0 == object) {
+            self.entries.copy_within(i + 1..self.len, i);
+            self.len -= 1;
+        }
+    }
+}
+
+struct Path {
+    /// Index of the pixel within the tile.
+    pixel: u32,
+    rng: Pcg32,
+    beta: DVec3,
+    radiance: DVec3,
+    o: DVec4,
+    d: DVec4,
+    bounces: u32,
+    crossings: u32,
+    stack: Stack,
+    /// The current segment ends at a sampled free-flight distance.
+    flight: bool,
+    /// Still on the camera ray (no surface recorded in the first-hit buffers yet).
+    primary: bool,
+}
+
+impl Path {
+    fn u3(&mut self) -> DVec3 {
+        DVec3::new(self.rng.random(), self.rng.random(), self.rng.random())
+    }
+}
+
+/// One surface hit waiting for its normal and material.
+struct Pending {
+    path: u32,
+    p: DVec4,
+    t: f64,
+    object: u32,
+}
+
+/// Per-thread scratch space, reused across tiles.
+#[derive(Default)]
+pub struct Scratch {
+    marcher: Marcher,
+    paths: Vec<Path>,
+    rays: Vec<Ray>,
+    hits: Vec<Hit>,
+    pending: Vec<Pending>,
+    outputs: Vec<f32>,
+    normals: Vec<DVec4>,
+    grad: Option<Regs<Dual, LANES>>,
+    regs: Option<Regs<f32, LANES>>,
+}
+
+/// A 64-bit mix (SplitMix64's finaliser), to give every path its own random stream.
+fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
+    z ^ (z >> 31)
+}
+
+/// The random stream of one sample: a function of the seed, frame, pixel and sample index
+/// only, so the image does not depend on how tiles are spread over threads.
+fn stream(seed: u64, frame: u32, pixel: u64, sample: u32) -> Pcg32 {
+    let key = mix(mix(mix(seed ^ 0x9e3779b97f4a7c15) ^ frame as u64) ^ pixel) ^ sample as u64;
+    Pcg32::seed_from_u64(mix(key))
+}
+
+/// Render `tile` of frame `frame`; returns each pixel's sums, row-major within the tile.
+pub fn render_tile(
+    fs: &FrameScene,
+    s: &Settings,
+    frame: u32,
+    tile: Tile,
+    initial: Stack,
+    scratch: &mut Scratch,
+    stats: &mut Stats,
+) -> Vec<PixelSums> {
+    let pixels = (tile.width * tile.height) as usize;
+    let mut sums = vec![PixelSums::default(); pixels];
+    let per_batch = (BATCH / pixels.max(1)).max(1) as u32;
+    let mut first = 0;
+    while first < s.spp {
+        let last = (first + per_batch).min(s.spp);
+        scratch.paths.clear();
+        for k in 0..pixels as u32 {
+            let (px, py) = (tile.x + k % tile.width, tile.y + k / tile.width);
+            let global = py as u64 * s.width as u64 + px as u64;
+            for sample in first..last {
+                let mut rng = stream(s.seed, frame, global, sample);
+                let (jx, jy): (f64, f64) = (rng.random(), rng.random());
+                let d = (fs.camera).direction(px as f64 + jx, py as f64 + jy, s.width, s.height);
+                scratch.paths.push(Path {
+                    pixel: k,
+                    rng,
+                    beta: DVec3::ONE,
+                    radiance: DVec3::ZERO,
+                    o: fs.camera.position,
+                    d,
+                    bounces: 0,
+                    crossings: 0,
+                    stack: initial,
+                    flight: false,
+                    primary: true,
+                });
+            }
+        }
+        trace(fs, s, scratch, &mut sums, stats);
+        first = last;
+    }
+    sums
+}
+
+impl Stack {
+    /// The media around the camera: every enterable object whose inside contains it.
+    pub fn at_camera(fs: &FrameScene, eps: f64) -> Stack {
+        let mut stack = Stack::EMPTY;
+        if !fs.features.interiors {
+            return stack;
+        }
+        let p = fs.camera.position;
+        for (i, o) in fs.objects.iter().enumerate() {
+            if !o.layout.has_interior() || !fs.contains(i, p, eps) {
+                continue;
+            }
+            let mut regs = Regs::<f32, 1>::new(&o.material);
+            let out = crate::vm::eval_point(
+                &o.material,
+                &mut regs,
+                p.as_vec4().to_array(),
+                [0.0, 0.0, 0.0, 1.0],
+                fs.t as f32,
+            );
+            match o.layout.surface(&out) {
+                Surface::Glass { inside, .. } | Surface::Boundary { inside } => {
+                    stack.push(i as u32, inside)
+                }
+                _ => {}
+            }
+        }
+        stack
+    }
+}
+
+/// Advance every path in `scratch.paths` until all have ended, adding each to its pixel.
+fn trace(
+    fs: &FrameScene,
+    s: &Settings,
+    scratch: &mut Scratch,
+    sums: &mut [PixelSums],
+    stats: &mut Stats,
+) {
+    let Scratch {
+        marcher,
+        paths,
+        rays,
+        hits,
+        pending,
+        outputs,
+        normals,
+        grad,
+        regs,
+    } = scratch;
+    let grad = grad.get_or_insert_with(|| Regs { r: vec![] });
+    let regs = regs.get_or_insert_with(|| Regs { r: vec![] });
+    let interior = fs.interior.as_ref().filter(|_| fs.features.interiors);
+    while !paths.is_empty() {
+        rays.clear();
+        for path in paths.iter_mut() {
+            let m = path.stack.medium(fs.medium);
+            let mut tmax = s.far;
+            path.flight = false;
+            if !m.is_vacuum() {
+                let u: f64 = path.rng.random();
+                let d = -(1.0 - u).ln() / m.sigma_t;
+                if d < tmax {
+                    (tmax, path.flight) = (d, true);
+                }
+            }
+            rays.push(Ray {
+                o: path.o,
+                d: path.d,
+                tmax,
+                interior: path.stack.len > 0 && interior.is_some(),
+            });
+        }
+        let before = marcher.evaluations;
+        marcher.march(&fs.scene, interior, fs.t as f32, rays, s.limits, hits);
+        stats.evaluations += marcher.evaluations - before;
+
+        // Resolve everything but surface hits; collect those.
+        pending.clear();
+        let mut alive = vec![true; paths.len()];
+        for (i, path) in paths.iter_mut().enumerate() {
+            match hits[i] {
+                Hit::OutOfSteps => {
+                    stats.out_of_steps += 1;
+                    alive[i] = false;
+                }
+                Hit::Beyond if path.flight => {
+                    alive[i] = scatter_in_medium(path, rays[i].tmax, fs, s);
+                }
+                Hit::Beyond => {
+                    path.radiance += path.beta * fs.sky;
+                    alive[i] = false;
+                }
+                Hit::Surface { t, object } => pending.push(Pending {
+                    path: i as u32,
+                    p: path.o + path.d * t,
+                    t,
+                    object: object as u32,
+                }),
+            }
+        }
+
+        // Normals and materials, a packet of one object's hits at a time.
+        pending.sort_by_key(|h| h.object);
+        for group in pending.chunk_by(|a, b| a.object == b.object) {
+            let object = &fs.objects[group[0].object as usize];
+            for chunk in group.chunks(LANES) {
+                normals_of(&object.distance, grad, chunk, fs.t as f32, normals);
+                let n_out = object.material.outputs.len();
+                regs.fit(&object.material);
+                *regs.input(Var::T.index()) = [fs.t as f32; LANES];
+                for (lane, (h, n)) in chunk.iter().zip(normals.iter()).enumerate() {
+                    let (p, n) = (h.p.as_vec4(), n.as_vec4());
+                    for axis in 0..4 {
+                        regs.input(Var::POINT[axis].index())[lane] = p[axis];
+                        regs.input(Var::NORMAL[axis].index())[lane] = n[axis];
+                    }
+                }
+                run(&object.material, regs);
+                for (lane, (h, &n)) in chunk.iter().zip(normals.iter()).enumerate() {
+                    outputs.clear();
+                    outputs.extend(object.material.outputs.iter().map(|&o| regs.get(o)[lane]));
+                    debug_assert_eq!(outputs.len(), n_out);
+                    let surface = object.layout.surface(outputs);
+                    let path = &mut paths[h.path as usize];
+                    let alive_now = shade(path, h, n, surface, s, &mut sums[path.pixel as usize]);
+                    alive[h.path as usize] = alive_now;
+                }
+            }
+        }
+
+        // Retire finished paths into their pixels.
+        let mut k = 0;
+        paths.retain(|path| {
+            let keep = alive[k];
+            k += 1;
+            if !keep {
+                let l = path.radiance;
+                stats.samples += 1;
+                if l.is_finite() {
+                    sums[path.pixel as usize].add_radiance(l);
+                } else {
+                    stats.dropped += 1;
+                    sums[path.pixel as usize].add_radiance(DVec3::ZERO);
+                }
+            }
+            keep
+        });
+    }
+}
+
+/// Unit outward normals of `tape`'s distance at the hits, by forward-mode gradients; where
+/// the gradient vanishes or is not finite, the normal faces back along the ray.
+fn normals_of(
+    tape: &crate::vm::Tape,
+    grad: &mut Regs<Dual, LANES>,
+    hits: &[Pending],
+    t: f32,
+    out: &mut Vec<DVec4>,
+) {
+    let points: Vec<[f32; 4]> = hits.iter().map(|h| h.p.as_vec4().to_array()).collect();
+    let g = crate::vm::gradient(tape, grad, &points, t);
+    out.clear();
+    out.extend(g.iter().map(|d| {
+        let n = DVec4::from_array(d.g.map(|x| x as f64));
+        let len = n.length();
+        if len.is_finite() && len > 1e-12 {
+            n / len
+        } else {
+            DVec4::ZERO
+        }
+    }));
+}
+
+/// Offset from a surface point along `side` (a unit normal), past the marching epsilon, so
+/// the next segment does not hit the same surface at once.
+fn leave(p: DVec4, side: DVec4, eps: f64) -> DVec4 {
+    p + side * (4.0 * epsilon_at(p, eps))
+}
+
+/// Russian roulette and the bounce count after a scattering event; false ends the path.
+fn survive(path: &mut Path, s: &Settings) -> bool {
+    path.bounces += 1;
+    if path.bounces >= s.roulette_from {
+        let q = path.beta.max_element().min(0.95);
+        if q <= 0.0 || path.rng.random::<f64>() >= q {
+            return false;
+        }
+        path.beta /= q;
+    }
+    path.beta.max_element() > 0.0
+}
+
+/// A real scattering event in the current medium, `t` along the segment.
+fn scatter_in_medium(path: &mut Path, t: f64, fs: &FrameScene, s: &Settings) -> bool {
+    if path.bounces >= s.bounces {
+        return false;
+    }
+    let m = path.stack.medium(fs.medium);
+    path.o += path.d * t;
+    path.beta *= m.albedo;
+    let u = path.u3();
+    let sample = HenyeyGreenstein::new(m.g).sample(-path.d, u);
+    path.d = sample.wo;
+    path.primary = false;
+    survive(path, s)
+}
+
+/// Shade one surface hit; false ends the path.
+fn shade(
+    path: &mut Path,
+    h: &Pending,
+    n: DVec4,
+    surface: Surface,
+    s: &Settings,
+    pixel: &mut PixelSums,
+) -> bool {
+    let eps = s.limits.epsilon;
+    let n = if n == DVec4::ZERO { -path.d } else { n };
+    let entering = path.d.dot(n) < 0.0;
+    if let Surface::Boundary { inside } = surface {
+        if entering {
+            path.stack.push(h.object, inside);
+        } else {
+            path.stack.remove(h.object);
+        }
+        path.o = leave(h.p, if entering { -n } else { n }, eps);
+        path.crossings += 1;
+        return path.crossings <= MAX_CROSSINGS;
+    }
+    if path.primary {
+        path.primary = false;
+        pixel.albedo += surface.albedo();
+        pixel.normal += n;
+        pixel.position += h.p;
+        pixel.depth += h.t;
+    }
+    path.radiance += path.beta * surface.emission();
+    if path.bounces >= s.bounces {
+        return false;
+    }
+    let u = path.u3();
+    let wi_world = -path.d;
+    match surface {
+        Surface::Light { .. } | Surface::Boundary { .. } => return false,
+        Surface::Glass { ior, tint, inside } => {
+            let frame = Frame::new(n);
+            let wi = frame.to_local(wi_world);
+            let Some(b) = (Dielectric { ior }).sample(wi, u) else {
+                return false;
+            };
+            path.beta *= b.weight;
+            let side = if b.wo.w >= 0.0 { n } else { -n };
+            if b.wo.w * wi.w < 0.0 {
+                path.beta *= tint;
+                if wi.w > 0.0 {
+                    path.stack.push(h.object, inside);
+                } else {
+                    path.stack.remove(h.object);
+                }
+            }
+            path.d = frame.to_world(b.wo).normalize();
+            path.o = leave(h.p, side, eps);
+        }
+        Surface::Diffuse { albedo, .. } => {
+            if !reflect(path, h.p, n, &Lambert { albedo }, u, eps) {
+                return false;
+            }
+        }
+        Surface::Mirror { tint } => {
+            if !reflect(path, h.p, n, &Mirror { tint }, u, eps) {
+                return false;
+            }
+        }
+        Surface::Shiny { roughness, color } => {
+            let ggx = Ggx::from_roughness(roughness, color);
+            if !reflect(path, h.p, n, &ggx, u, eps) {
+                return false;
+            }
+        }
+    }
+    survive(path, s)
+}
+
+/// Scatter off a one-sided reflector, its frame turned towards the side the path came from.
+fn reflect(path: &mut Path, p: DVec4, n: DVec4, bsdf: &dyn Bsdf, u: DVec3, eps: f64) -> bool {
+    let n = if path.d.dot(n) < 0.0 { n } else { -n };
+    let frame = Frame::new(n);
+    let Some(b) = bsdf.sample(frame.to_local(-path.d), u) else {
+        return false;
+    };
+    path.beta *= b.weight;
+    path.d = frame.to_world(b.wo).normalize();
+    path.o = leave(p, n, eps);
+    true
+}
