@@ -25,7 +25,8 @@ pub(crate) fn quantise(pixels: &[[u8; 3]], width: usize) -> Quantised {
             psnr: f64::INFINITY,
         };
     }
-    let palette = neuquant_palette(pixels);
+    let mut palette = neuquant_palette(pixels);
+    refine(pixels, &mut palette, REFINE_PASSES);
     let indices = dither(pixels, width, &palette);
     let psnr = psnr(pixels, &palette, &indices);
     Quantised {
@@ -71,6 +72,30 @@ fn neuquant_palette(pixels: &[[u8; 3]]) -> Vec<[u8; 3]> {
         .chunks_exact(3)
         .map(|c| [c[0], c[1], c[2]])
         .collect()
+}
+
+/// Lloyd (k-means) passes after NeuQuant: its network under-serves sparse regions of colour
+/// space, and a few passes move each entry to the mean of the pixels it stands for.
+const REFINE_PASSES: usize = 3;
+
+fn refine(pixels: &[[u8; 3]], palette: &mut [[u8; 3]], passes: usize) {
+    for _ in 0..passes {
+        let mut sums = vec![[0u64; 3]; palette.len()];
+        let mut counts = vec![0u64; palette.len()];
+        let mut nearest = Nearest::new(palette);
+        for &p in pixels {
+            let i = nearest.find(p) as usize;
+            counts[i] += 1;
+            for k in 0..3 {
+                sums[i][k] += p[k] as u64;
+            }
+        }
+        for ((entry, sum), &n) in palette.iter_mut().zip(&sums).zip(&counts) {
+            if n > 0 {
+                *entry = sum.map(|s| ((s + n / 2) / n) as u8);
+            }
+        }
+    }
 }
 
 /// Exact nearest-colour search, accelerated by a lazily built grid of 32³ cells, each holding

@@ -29,8 +29,15 @@ fn listing(dir: &Path) -> Vec<String> {
     names
 }
 
-/// Decode a GIF into RGB frames, its delays and its repeat setting.
-fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<[u8; 3]>>, Vec<u16>, ::gif::Repeat) {
+/// A GIF decoded into RGB frames.
+struct Decoded {
+    size: (u16, u16),
+    frames: Vec<Vec<[u8; 3]>>,
+    delays: Vec<u16>,
+    repeat: ::gif::Repeat,
+}
+
+fn decode_gif(path: &Path) -> Decoded {
     let mut opts = ::gif::DecodeOptions::new();
     opts.set_color_output(::gif::ColorOutput::RGBA);
     let mut dec = opts.read_info(fs::File::open(path).unwrap()).unwrap();
@@ -47,7 +54,12 @@ fn decode_gif(path: &Path) -> (u16, u16, Vec<Vec<[u8; 3]>>, Vec<u16>, ::gif::Rep
                 .collect(),
         );
     }
-    (w, h, frames, delays, dec.repeat())
+    Decoded {
+        size: (w, h),
+        frames,
+        delays,
+        repeat: dec.repeat(),
+    }
 }
 
 fn psnr_db(a: &[[u8; 3]], b: &[[u8; 3]]) -> f64 {
@@ -86,8 +98,13 @@ fn gif_gradient_round_trips() {
     let psnr = written.gif_psnr.unwrap();
     assert!(psnr.is_finite() && psnr > 30.0, "psnr {psnr}");
 
-    let (w, h, decoded, delays, repeat) = decode_gif(&path);
-    assert_eq!((w, h), (96, 64));
+    let Decoded {
+        size,
+        frames: decoded,
+        delays,
+        repeat,
+    } = decode_gif(&path);
+    assert_eq!(size, (96, 64));
     assert_eq!(decoded.len(), 4);
     assert_eq!(delays, vec![4; 4]);
     assert_eq!(repeat, ::gif::Repeat::Infinite);
@@ -122,7 +139,12 @@ fn gif_with_few_colours_is_exact() {
     };
     let written = write(&path, &frames, &settings).unwrap();
     assert_eq!(written.gif_psnr, Some(f64::INFINITY));
-    let (_, _, decoded, delays, repeat) = decode_gif(&path);
+    let Decoded {
+        frames: decoded,
+        delays,
+        repeat,
+        ..
+    } = decode_gif(&path);
     assert_eq!(delays, vec![2; 3], "delay clamped to 2");
     assert_eq!(repeat, ::gif::Repeat::Infinite);
     for (f, d) in frames.iter().zip(&decoded) {
@@ -277,7 +299,7 @@ fn check_writable_accepts_and_rejects() {
     ));
 
     // The parent is a file, not a directory.
-    let e = check_writable(&scene.join("x.png"), &Path::new("elsewhere.4ds")).unwrap_err();
+    let e = check_writable(&scene.join("x.png"), Path::new("elsewhere.4ds")).unwrap_err();
     assert!(matches!(e, OutputError::NotADirectory { .. }), "{e}");
 
     // Nothing was left behind by the probes.

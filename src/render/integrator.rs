@@ -110,6 +110,9 @@ struct Path {
     pixel: u32,
     rng: Pcg32,
     beta: DVec3,
+    /// Product of `(eta_light_side / eta_camera_side)^3` over transmissions: `beta * eta_scale`
+    /// is the throughput without radiance scaling, which is what Russian roulette should see.
+    eta_scale: f64,
     radiance: DVec3,
     o: DVec4,
     d: DVec4,
@@ -192,6 +195,7 @@ pub fn render_tile(
                     pixel: k,
                     rng,
                     beta: DVec3::ONE,
+                    eta_scale: 1.0,
                     radiance: DVec3::ZERO,
                     o: fs.camera.position,
                     d,
@@ -390,10 +394,12 @@ fn leave(p: DVec4, side: DVec4, eps: f64) -> DVec4 {
 }
 
 /// Russian roulette and the bounce count after a scattering event; false ends the path.
+/// As in pbrt, a path survives with probability equal to its throughput (without radiance
+/// scaling) when that is below 1, so weights never grow past 1 and add no heavy tail.
 fn survive(path: &mut Path, s: &Settings) -> bool {
     path.bounces += 1;
-    if path.bounces >= s.roulette_from {
-        let q = path.beta.max_element().min(0.95);
+    let q = (path.beta * path.eta_scale).max_element();
+    if path.bounces >= s.roulette_from && q < 1.0 {
         if q <= 0.0 || path.rng.random::<f64>() >= q {
             return false;
         }
@@ -464,6 +470,7 @@ fn shade(
             let side = if b.wo.w >= 0.0 { n } else { -n };
             if b.wo.w * wi.w < 0.0 {
                 path.beta *= tint;
+                path.eta_scale /= b.weight.x;
                 if wi.w > 0.0 {
                     path.stack.push(h.object, inside);
                 } else {

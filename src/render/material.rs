@@ -101,10 +101,13 @@ impl Medium {
     }
 }
 
+/// A parameter's name, first output and number of outputs (1 for numbers, 3 for colours).
+type Slot = (&'static str, usize, usize);
+
 /// Where each leaf's parameters sit among a material tape's outputs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Layout {
-    leaves: Vec<(MaterialKind, Vec<(&'static str, usize, usize)>)>,
+    leaves: Vec<(MaterialKind, Vec<Slot>)>,
 }
 
 impl Layout {

@@ -1,0 +1,475 @@
+//! The renderer against answers known in closed form (see `../shared/design/PHYSICS.md`,
+//! "Tests the best renderers run, ported to 4D"), and its behaviour at the extremes.
+//!
+//! Statistical checks compare a Monte Carlo mean with its expected value within 4 standard
+//! errors (a false alarm about once in 16,000 runs; every seed is fixed, so a run that passes
+//! passes every time). Deterministic ones use a relative tolerance of 1e-5.
+
+use glam::DVec3;
+use hyperslice::Compilation;
+use hyperslice::render::driver::{self, Options, Rendered};
+use std::time::Duration;
+
+/// Time any one of these renders may take (release build, a loaded 2-core machine).
+const TIME_BOUND: Duration = Duration::from_secs(20);
+
+fn render_with(src: &str, options: Options) -> Rendered {
+    let c = Compilation::from_source("test.4ds", src);
+    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+    let scene = c.scene.expect("a scene");
+    let r = driver::render(&scene, &options, &|_| {}).expect("rendered");
+    assert!(r.elapsed < TIME_BOUND, "took {:?}", r.elapsed);
+    for film in &r.frames {
+        for c in &film.color {
+            assert!(c.is_finite() && c.min_element() >= 0.0, "pixel {c}");
+        }
+    }
+    r
+}
+
+fn render(src: &str) -> Rendered {
+    render_with(src, Options::default())
+}
+
+fn no_roulette() -> Options {
+    Options {
+        roulette_from: u32::MAX,
+        ..Options::default()
+    }
+}
+
+/// Mean over all pixels of every frame, and its standard error (pixels are independent).
+fn mean_and_error(r: &Rendered) -> (DVec3, DVec3) {
+    let films = &r.frames;
+    let n: usize = films.iter().map(|f| f.color.len()).sum();
+    let mean = films.iter().flat_map(|f| &f.color).sum::<DVec3>() / n as f64;
+    let var = films
+        .iter()
+        .flat_map(|f| &f.std_error)
+        .map(|e| *e * *e)
+        .sum::<DVec3>();
+    (mean, var.map(f64::sqrt) / n as f64)
+}
+
+fn assert_mean(what: &str, r: &Rendered, want: DVec3) {
+    let (mean, se) = mean_and_error(r);
+    for c in 0..3 {
+        let tol = 4.0 * se[c] + 1e-9 * want[c].abs().max(1.0);
+        assert!(
+            (mean[c] - want[c]).abs() <= tol,
+            "{what}: channel {c} mean {} expected {} (4 sigma = {tol})",
+            mean[c],
+            want[c]
+        );
+    }
+}
+
+/// Every pixel within 4 of its own standard errors of `want` (exactly `want` where a pixel's
+/// samples all agree).
+fn assert_every_pixel(what: &str, r: &Rendered, want: f64) {
+    for film in &r.frames {
+        for (i, (c, e)) in film.color.iter().zip(&film.std_error).enumerate() {
+            for k in 0..3 {
+                let tol = 4.0 * e[k] + 1e-9;
+                assert!(
+                    (c[k] - want).abs() <= tol,
+                    "{what}: pixel {i} channel {k} is {} expected {want} (4 sigma = {tol})",
+                    c[k]
+                );
+            }
+        }
+    }
+}
+
+// ---- 1. Closed furnace -------------------------------------------------------------------
+
+/// A camera inside a closed shell of Lambertian walls with albedo `rho` and emission `le`:
+/// `L = le (1 - rho^(K+1)) / (1 - rho)` for at most K bounces, the same for every sample.
+fn closed_furnace(shape: &str, rho: [f64; 3], le: f64, bounces: u32, extra: &str) -> Rendered {
+    let src = format!(
+        "render {{ size = 12 x 9  spp = 3  bounces = {bounces} {extra} }}
+         camera {{ from = [0.1, 0.2, -0.3, 0.05] look = rotate(xw, 30deg) fov = 100deg }}
+         object walls {{ shape = {shape}
+           material = diffuse(albedo: rgb({}, {}, {}), emission: rgb({le})) }}",
+        rho[0], rho[1], rho[2]
+    );
+    render_with(&src, no_roulette())
+}
+
+fn assert_closed_furnace(what: &str, r: &Rendered, rho: [f64; 3], le: f64, k: u32) {
+    assert_eq!(r.stats.out_of_steps, 0, "{what}: every ray hits a wall");
+    for film in &r.frames {
+        for c in &film.color {
+            for (ch, &rho) in rho.iter().enumerate() {
+                let want = le * (1.0 - rho.powi(k as i32 + 1)) / (1.0 - rho);
+                let rel = (c[ch] - want).abs() / want;
+                assert!(rel < 1e-5, "{what}: got {} want {want} ({rel:e})", c[ch]);
+            }
+        }
+    }
+}
+
+#[test]
+fn closed_furnace_hypersphere_shell_is_exact() {
+    let rho = [0.5, 0.8, 0.2];
+    for k in [0, 1, 5, 12] {
+        let r = closed_furnace("hypersphere(2) |> onion(0.2)", rho, 0.3, k, "");
+        assert_closed_furnace(&format!("sphere K={k}"), &r, rho, 0.3, k);
+    }
+}
+
+#[test]
+fn closed_furnace_hyperbox_room_is_exact() {
+    let rho = [0.9, 0.6, 0.3];
+    let r = closed_furnace("hyperbox([2, 1.5, 3, 1]) |> onion(0.1)", rho, 1.0, 8, "");
+    assert_closed_furnace("box", &r, rho, 1.0, 8);
+}
+
+#[test]
+fn closed_furnace_holds_at_marching_epsilon_extremes() {
+    let rho = [0.7, 0.7, 0.7];
+    for eps in ["1e-7", "1e-1"] {
+        let r = closed_furnace(
+            "hypersphere(2) |> onion(0.4)",
+            rho,
+            0.5,
+            6,
+            // A smaller epsilon needs more steps along rays that graze the walls.
+            &format!("epsilon = {eps} max_steps = 100000"),
+        );
+        assert_closed_furnace(&format!("epsilon {eps}"), &r, rho, 0.5, 6);
+    }
+}
+
+// ---- 2. Open furnaces ----------------------------------------------------------------------
+
+fn open_furnace(objects: &str, bounces: u32, spp: u32) -> String {
+    format!(
+        "render {{ size = 10 x 8  spp = {spp}  bounces = {bounces} }}
+         camera {{ from = [0, 0.3, -4, 0.2] fov = 45deg }}
+         sky = rgb(1)
+         {objects}"
+    )
+}
+
+#[test]
+fn open_furnace_white_lambertian_is_one() {
+    // Two overlapping balls: paths bounce between them before they escape.
+    let src = open_furnace(
+        "object a { shape = hypersphere(1) |> translate([-0.6, 0, 0, 0]) material = diffuse(albedo: rgb(1)) }
+         object b { shape = hypersphere(0.8) |> translate([0.7, 0.2, 0.3, 0.1]) material = diffuse(albedo: rgb(1)) }",
+        1000,
+        64,
+    );
+    let r = render(&src);
+    assert_every_pixel("lambertian", &r, 1.0);
+    assert_mean("lambertian", &r, DVec3::ONE);
+}
+
+#[test]
+fn open_furnace_lossless_glass_is_one() {
+    for (shape, ior) in [
+        ("hypersphere(1.2)", "1.5"),
+        (
+            "hyperbox(0.8) |> rotate(xz, 30deg) |> rotate(yw, 20deg)",
+            "1.5",
+        ),
+        ("hypersphere(1.2)", "1.0"),
+        ("hyperbox(0.8) |> rotate(xz, 30deg)", "4.0"),
+    ] {
+        let src = open_furnace(
+            &format!("object g {{ shape = {shape} material = glass(ior: {ior}) }}"),
+            1000,
+            64,
+        );
+        let r = render(&src);
+        assert_every_pixel(&format!("glass {ior} {shape}"), &r, 1.0);
+        assert_mean(&format!("glass {ior} {shape}"), &r, DVec3::ONE);
+    }
+}
+
+#[test]
+fn open_furnace_index_matched_scattering_medium_is_one() {
+    for (material, label) in [
+        ("glass(ior: 1, extinction: 1.5, albedo: rgb(1))", "glass"),
+        (
+            "fog(extinction: 1.5, albedo: rgb(1), anisotropy: 0.6)",
+            "fog",
+        ),
+        ("fog(extinction: 0.000001, albedo: rgb(1))", "thin fog"),
+    ] {
+        let src = open_furnace(
+            &format!("object m {{ shape = hypersphere(1.2) material = {material} }}"),
+            1000,
+            64,
+        );
+        let r = render(&src);
+        assert_every_pixel(label, &r, 1.0);
+        assert_mean(label, &r, DVec3::ONE);
+    }
+}
+
+#[test]
+fn camera_inside_a_medium_starts_in_it() {
+    // The camera sits inside an index-matched white medium: still a furnace.
+    let src = "render { size = 8 x 6  spp = 64  bounces = 1000 }
+               camera { from = [0, 0, 0, 0] fov = 90deg }
+               sky = rgb(1)
+               object m { shape = hypersphere(2) material = fog(extinction: 1, albedo: rgb(1)) }";
+    let r = render(src);
+    assert_every_pixel("inside fog", &r, 1.0);
+    // An absorbing one darkens it by exactly the transmittance over the radius.
+    let src = src.replace("albedo: rgb(1)", "albedo: rgb(0)");
+    let r = render(&src);
+    assert_mean("inside absorbing fog", &r, DVec3::splat((-2.0f64).exp()));
+}
+
+#[test]
+fn shiny_roughness_extremes() {
+    // A white polished metal reflects the white sky exactly; a fully rough one loses energy
+    // to masking but stays finite and at most 1.
+    let src = |r: &str| {
+        open_furnace(
+            &format!(
+                "object s {{ shape = hypersphere(1.2) material = shiny(roughness: {r}, color: rgb(1)) }}"
+            ),
+            64,
+            32,
+        )
+    };
+    assert_every_pixel("roughness 0", &render(&src("0")), 1.0);
+    let rough = render(&src("1"));
+    let (mean, se) = mean_and_error(&rough);
+    assert!(mean.max_element() <= 1.0 + 4.0 * se.max_element(), "{mean}");
+    assert!(mean.min_element() > 0.5, "{mean}");
+}
+
+// ---- 6. Analytic scenes --------------------------------------------------------------------
+
+/// A camera looking straight through a slab of thickness 1 along z with a narrow field of view.
+fn slab(material: &str, spp: u32, seed: u64) -> String {
+    format!(
+        "render {{ size = 2 x 2  spp = {spp}  bounces = 4  seed = {seed} }}
+         camera {{ from = [0, 0, -3, 0] fov = 0.5deg }}
+         sky = rgb(1)
+         object slab {{ shape = hyperbox([50, 50, 0.5, 50]) material = {material} }}"
+    )
+}
+
+#[test]
+fn absorbing_slab_transmits_exp_minus_sigma_l() {
+    // Off-axis rays are at most 0.25 degrees from the axis: their path is longer by < 1e-5.
+    for (material, sigma) in [
+        ("glass(ior: 1, extinction: 0.7, albedo: rgb(0))", 0.7),
+        ("fog(extinction: 2.5, albedo: rgb(0))", 2.5),
+    ] {
+        let r = render(&slab(material, 20000, 1));
+        let sigma: f64 = sigma;
+        assert_mean(material, &r, DVec3::splat((-sigma).exp()));
+    }
+}
+
+/// The floor point under a spherical light: `L = rho L_e (R / d)^3`.
+fn emitter_scene(d: f64, spp: u32) -> String {
+    format!(
+        "render {{ size = 2 x 2  spp = {spp}  bounces = 1 }}
+         camera {{ from = [0, 1, -4, 0] look = rotate(yz, 14.036243deg) fov = 0.2deg }}
+         object floor {{ shape = halfspace(normal: [0, 1, 0, 0], offset: 0) material = diffuse(albedo: rgb(0.8)) }}
+         object lamp {{ shape = hypersphere(1) |> translate([0, {d}, 0, 0]) material = light(intensity: 10) }}"
+    )
+}
+
+#[test]
+fn spherical_emitter_matches_r_over_d_cubed_and_falls_as_inverse_cube() {
+    let near = render(&emitter_scene(2.0, 40000));
+    let want = 0.8 * 10.0 * (1.0f64 / 2.0).powi(3);
+    assert_mean("d = 2", &near, DVec3::splat(want));
+    let far = render(&emitter_scene(4.0, 160000));
+    assert_mean("d = 4", &far, DVec3::splat(want / 8.0));
+    let ((a, sa), (b, sb)) = (mean_and_error(&near), mean_and_error(&far));
+    let ratio = a.x / b.x;
+    let sigma = ratio * ((sa.x / a.x).powi(2) + (sb.x / b.x).powi(2)).sqrt();
+    assert!(
+        (ratio - 8.0).abs() < 4.0 * sigma,
+        "ratio {ratio} +- {sigma}"
+    );
+}
+
+// ---- 7. Convergence ------------------------------------------------------------------------
+
+#[test]
+fn error_falls_as_one_over_root_n() {
+    let sigma: f64 = 0.7;
+    let want = (-sigma).exp();
+    let material = "glass(ior: 1, extinction: 0.7, albedo: rgb(0))";
+    let spps = [1u32, 4, 16, 64, 256];
+    let mut points = vec![];
+    for &spp in &spps {
+        let mut sq = 0.0;
+        for seed in 0..8 {
+            let r = render(&slab(material, spp, seed));
+            for film in &r.frames {
+                for c in &film.color {
+                    sq += (c.x - want).powi(2);
+                }
+            }
+        }
+        let rmse = (sq / 32.0).sqrt();
+        points.push(((spp as f64).ln(), rmse.ln()));
+    }
+    let n = points.len() as f64;
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
+        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    assert!((-0.6..=-0.4).contains(&slope), "slope {slope}: {points:?}");
+}
+
+// ---- Determinism ---------------------------------------------------------------------------
+
+#[test]
+fn same_seed_is_bit_identical_whatever_the_thread_count() {
+    let src = "render { size = 40 x 36  spp = 4  frames = 2 }
+               camera { from = [0, 0.5, -4, 0] to = [0, 0.5, -4, 0.5] }
+               sky = rgb(0.5)
+               medium = fog(extinction: 0.05, albedo: 0.9)
+               object ball { shape = hypersphere(1) material = glass(ior: 1.5, extinction: 0.3) }
+               object floor { shape = halfspace(offset: -1) material = diffuse() }
+               object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 20) }";
+    let one = render_with(
+        src,
+        Options {
+            threads: Some(1),
+            ..Options::default()
+        },
+    );
+    let two = render_with(
+        src,
+        Options {
+            threads: Some(2),
+            ..Options::default()
+        },
+    );
+    assert_eq!(one.frames, two.frames);
+    assert_eq!(one.stats, two.stats);
+    let other = render(&src.replace("spp = 4", "spp = 4 seed = 9"));
+    assert_ne!(one.frames[0].color, other.frames[0].color);
+}
+
+#[test]
+fn specialised_and_general_paths_agree() {
+    // A scene without media or glass renders the same through the general code path.
+    let src = "render { size = 24 x 18  spp = 4 }
+               sky = rgb(0.8)
+               object ball { shape = hypersphere(1) material = shiny(roughness: 0.4) }
+               object floor { shape = halfspace(offset: -1) material = diffuse() }";
+    let fast = render(src);
+    let general = render_with(
+        src,
+        Options {
+            general: true,
+            ..Options::default()
+        },
+    );
+    assert_eq!(fast.frames, general.frames);
+}
+
+// ---- Extremes ------------------------------------------------------------------------------
+
+/// The white-Lambertian furnace at scale `s` (epsilon scaled with it).
+fn scaled_furnace(s: f64) -> String {
+    format!(
+        "render {{ size = 8 x 6  spp = 16  bounces = 1000  epsilon = {} }}
+         camera {{ from = [0, 0, {}, 0] fov = 60deg }}
+         sky = rgb(1)
+         object a {{ shape = hypersphere({s}) material = diffuse(albedo: rgb(1)) }}
+         object b {{ shape = hypersphere({}) |> translate([{}, 0, 0, 0]) material = diffuse(albedo: rgb(1)) }}",
+        (1e-4 * s).min(1.0),
+        -4.0 * s,
+        0.5 * s,
+        1.2 * s
+    )
+}
+
+#[test]
+fn scales_from_1e_minus_4_to_1e5() {
+    for s in [1e-4, 1e5] {
+        let r = render(&scaled_furnace(s));
+        assert_every_pixel(&format!("scale {s}"), &r, 1.0);
+    }
+}
+
+#[test]
+fn far_from_the_origin_with_tiling() {
+    let src = "render { size = 16 x 12  spp = 2 }
+               camera { from = [1000000, 0.5, 1000000, 1000000] fov = 60deg }
+               sky = rgb(0.5)
+               object lattice { shape = hypersphere(0.5) |> tile(d4(scale: 2)) material = diffuse() }";
+    let r = render(src);
+    assert_eq!(r.stats.dropped, 0);
+}
+
+#[test]
+fn grazing_rays_along_a_halfspace() {
+    let src = "render { size = 32 x 8  spp = 2  max_steps = 200 }
+               camera { from = [0, 0.001, 0, 0] fov = 120deg }
+               sky = rgb(1)
+               object floor { shape = halfspace(offset: 0) material = diffuse(albedo: rgb(0.5)) }";
+    let r = render(src);
+    // Rays just above the horizon run out of steps; they are counted, not shaded.
+    assert!(r.stats.out_of_steps > 0);
+    assert_eq!(r.stats.dropped, 0);
+}
+
+#[test]
+fn one_marching_step_ends_every_ray() {
+    let src = "render { size = 6 x 4  spp = 2  max_steps = 1 }
+               sky = rgb(1)
+               object ball { shape = hypersphere(1) material = diffuse() }";
+    let r = render(src);
+    assert_eq!(r.stats.out_of_steps, 48);
+    assert!(r.frames[0].color.iter().all(|c| *c == DVec3::ZERO));
+}
+
+#[test]
+fn dense_medium_stays_finite() {
+    let src = open_furnace(
+        "object m { shape = hypersphere(1.2) material = fog(extinction: 10000, albedo: rgb(0.9)) }",
+        8,
+        4,
+    );
+    let r = render(&src);
+    assert_eq!(r.stats.dropped, 0);
+}
+
+#[test]
+fn camera_inside_a_solid_object() {
+    let src = "render { size = 8 x 6  spp = 4 }
+               sky = rgb(1)
+               camera { from = [0, 0, 0, 0] }
+               object ball { shape = hypersphere(1) material = diffuse() }";
+    let r = render(src);
+    assert_eq!(r.stats.dropped, 0);
+}
+
+#[test]
+fn tiny_and_very_wide_images_and_single_frames() {
+    for size in ["1 x 1", "2000 x 1", "1 x 300"] {
+        let src = format!(
+            "render {{ size = {size}  spp = 1  frames = 1 }}
+             sky = rgb(1)
+             object ball {{ shape = hypersphere(1) material = diffuse(albedo: rgb(1)) }}"
+        );
+        let r = render(&src);
+        assert_eq!(r.frames.len(), 1);
+        let (w, h) = size.split_once(" x ").unwrap();
+        assert_eq!(
+            r.frames[0].color.len(),
+            w.parse::<usize>().unwrap() * h.parse::<usize>().unwrap()
+        );
+    }
+    assert_eq!(driver::frame_time(0, 1), 0.0);
+    assert_eq!(driver::frame_time(4, 5), 1.0);
+}
