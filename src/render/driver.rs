@@ -76,7 +76,6 @@ pub fn render(
     let mut prepared = Prepared::new(scene);
     if options.general {
         prepared.features.interiors = true;
-        prepared.features.media = true;
     }
     let camera = &scene.camera;
     let reach = DVec4::from_array(camera.from)

@@ -21,8 +21,6 @@ pub struct Features {
     /// Some object can be entered (glass, fog or air in its material): rays may travel inside
     /// objects, which needs the interior tape and a medium stack.
     pub interiors: bool,
-    /// Some medium may scatter or absorb (a fog, or glass): free-flight sampling is needed.
-    pub media: bool,
 }
 
 pub struct FrameScene {
@@ -58,11 +56,7 @@ impl<'s> Prepared<'s> {
             .map(|o| Layout::new(&o.material.leaves))
             .collect();
         let interiors = layouts.iter().any(Layout::has_interior);
-        let medium = Medium::of_material(&scene.medium);
-        let features = Features {
-            interiors,
-            media: interiors || !medium.is_vacuum(),
-        };
+        let features = Features { interiors };
         let interior = interiors.then(|| interior_ir(&ir));
         Prepared {
             scene,

@@ -1,0 +1,174 @@
+//! `hyperslice render` end to end: files written, overrides applied, and every bad request
+//! refused with a clear message before any rendering starts.
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+const SCENE: &str = "render { size = 320 x 240  frames = 3  spp = 64 }
+sky = rgb(0.6, 0.7, 0.9)
+object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
+object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 5) }
+";
+
+fn hyperslice(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("ran hyperslice")
+}
+
+fn setup() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    dir
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<_> = std::fs::read_dir(dir)
+        .expect("listed")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    v.sort();
+    v
+}
+
+#[test]
+fn renders_an_animated_gif_with_overrides() {
+    let dir = setup();
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "out.gif",
+            "--size",
+            "24x16",
+            "--spp",
+            "2",
+            "--frames",
+            "4",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    assert!(err.contains("24 x 16, 4 frames, 2 spp"), "{err}");
+    assert!(err.contains("GIF quantisation: PSNR"), "{err}");
+    assert!(err.contains("samples ("), "{err}");
+    let file = std::fs::File::open(dir.path().join("out.gif")).expect("gif written");
+    let mut decoder = gif::DecodeOptions::new().read_info(file).expect("a GIF");
+    assert_eq!((decoder.width(), decoder.height()), (24, 16));
+    let mut frames = 0;
+    while decoder.read_next_frame().expect("frame").is_some() {
+        frames += 1;
+    }
+    assert_eq!(frames, 4);
+    assert_eq!(files(dir.path()), ["out.gif", "scene.4ds"]);
+}
+
+#[test]
+fn writes_numbered_png_and_exr_frames() {
+    let dir = setup();
+    for ext in ["png", "exr"] {
+        let out = format!("shot.{ext}");
+        let o = hyperslice(
+            dir.path(),
+            &[
+                "render",
+                "scene.4ds",
+                "-o",
+                &out,
+                "--size",
+                "8x6",
+                "--spp",
+                "1",
+                "--frames",
+                "2",
+            ],
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_eq!(
+        files(dir.path()),
+        [
+            "scene.4ds",
+            "shot_0000.exr",
+            "shot_0000.png",
+            "shot_0001.exr",
+            "shot_0001.png"
+        ]
+    );
+}
+
+#[test]
+fn the_same_seed_gives_the_same_file_whatever_the_threads() {
+    let dir = setup();
+    for (out, threads) in [("a.png", "1"), ("b.png", "2")] {
+        let args = [
+            "render",
+            "scene.4ds",
+            "-o",
+            out,
+            "--size",
+            "40x20",
+            "--spp",
+            "2",
+            "--frames",
+            "1",
+            "--threads",
+            threads,
+        ];
+        let o = hyperslice(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let a = std::fs::read(dir.path().join("a.png")).unwrap();
+    let b = std::fs::read(dir.path().join("b.png")).unwrap();
+    assert_eq!(a, b);
+}
+
+#[test]
+fn refuses_bad_outputs_before_rendering() {
+    let dir = setup();
+    for (out, message) in [
+        ("missing/out.gif", "does not exist"),
+        ("out.jpg", "unknown output format"),
+        ("scene.4ds", "refusing to overwrite"),
+    ] {
+        // The full-size render would take seconds; a refusal is immediate.
+        let start = std::time::Instant::now();
+        let o = hyperslice(dir.path(), &["render", "scene.4ds", "-o", out]);
+        assert!(!o.status.success(), "{out}");
+        assert!(stderr(&o).contains(message), "{out}: {}", stderr(&o));
+        assert!(!stderr(&o).contains("rendering"), "{}", stderr(&o));
+        assert!(start.elapsed().as_secs_f64() < 5.0);
+    }
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("scene.4ds")).unwrap(),
+        SCENE
+    );
+    assert_eq!(files(dir.path()), ["scene.4ds"]);
+}
+
+#[test]
+fn refuses_bad_flags_and_bad_scenes() {
+    let dir = setup();
+    let o = hyperslice(dir.path(), &["render", "scene.4ds", "--size", "20by10"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("WIDTHxHEIGHT"), "{}", stderr(&o));
+    let o = hyperslice(dir.path(), &["render", "scene.4ds", "--spp", "0"]);
+    assert!(!o.status.success());
+    std::fs::write(
+        dir.path().join("bad.4ds"),
+        "object x { shape = hypersphre(1) }",
+    )
+    .unwrap();
+    let o = hyperslice(dir.path(), &["render", "bad.4ds", "-o", "bad.gif"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("hypersphere"), "{}", stderr(&o));
+    assert!(!dir.path().join("bad.gif").exists());
+}
