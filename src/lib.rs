@@ -3,8 +3,10 @@
 //! The pipeline runs one way: source -> tokens -> AST -> typed scene (see `docs/`).
 
 pub mod check;
+pub mod denoise;
 pub mod diagnostic;
 pub mod ir;
+pub mod metrics;
 pub mod output;
 pub mod render;
 pub mod source;

@@ -25,6 +25,9 @@ pub struct Options {
     /// Render every feature's code path even when the scene does not need it (to measure what
     /// the specialisation saves).
     pub general: bool,
+    /// Next-event estimation towards spherical lights, combined with BSDF sampling by multiple
+    /// importance sampling (on by default). Off, the estimator is pure BSDF sampling.
+    pub light_sampling: bool,
 }
 
 impl Default for Options {
@@ -33,6 +36,7 @@ impl Default for Options {
             threads: None,
             roulette_from: 3,
             general: false,
+            light_sampling: true,
         }
     }
 }
@@ -94,6 +98,7 @@ pub fn render(
         seed: r.seed,
         roulette_from: options.roulette_from,
         far: 1e3 * (1.0 + reach),
+        light_sampling: options.light_sampling,
     };
     let tiles: Vec<Tile> = (0..r.height.div_ceil(TILE))
         .flat_map(|ty| {

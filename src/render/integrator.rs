@@ -1,10 +1,32 @@
 //! The path tracer: unidirectional paths with BSDF and phase-function sampling, a wavefront
 //! at a time. All paths of a batch march together through the VM; hits are then grouped by
 //! object so normals (forward-mode gradients) and material maps also run as packets.
+//!
+//! # Next-event estimation
+//! With `Settings::light_sampling` on, every non-delta scattering vertex (diffuse, rough shiny,
+//! a scattering event in a medium) also samples a direction towards one spherical light
+//! (`lights.rs`) and sends a shadow ray; the shadow rays of a whole wavefront march together
+//! after shading. A shadow ray sees the light when the first surface it meets is that light;
+//! it is attenuated by `exp(-sigma_t t)` in the path's current (homogeneous) medium. Any other
+//! first surface, a glass or fog boundary included, occludes it: light through those is left to
+//! BSDF sampling, which reaches it with weight 1 (see below).
+//!
+//! The two strategies are combined by multiple importance sampling with the **power heuristic**
+//! (exponent 2) on solid-angle pdfs: the light sample is weighted by
+//! `p_light^2 / (p_light^2 + p_bsdf^2)`, and a BSDF-sampled ray that hits a spherical light by
+//! `p_bsdf^2 / (p_bsdf^2 + p_light^2)`, with `p_light` evaluated from the vertex the ray left.
+//! The weights sum to 1 for every path that both strategies can produce. For paths only one of
+//! them can produce the other's pdf is 0 and the weight 1: camera rays and rays leaving delta
+//! lobes (mirror, glass, roughness 0) carry no BSDF pdf (`Path::mis_pdf = 0`), and so does a ray
+//! that crossed a fog or air boundary since its last vertex (a shadow ray would have been
+//! stopped there); a vertex inside a light has no light sample and `p_light = 0`. Light sampling
+//! draws its random numbers from the path's own stream, so images stay independent of the
+//! thread count; with it off no extra numbers are drawn and the estimator is plain BSDF sampling.
 
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
 use super::film::PixelSums;
 use super::frame::FrameScene;
+use super::lights::Lights;
 use super::march::{Hit, Limits, Marcher, Ray, epsilon_at};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
@@ -29,6 +51,8 @@ pub struct Settings {
     pub roulette_from: u32,
     /// Rays that get this far without a hit have left the scene.
     pub far: f64,
+    /// Next-event estimation towards spherical lights, combined with BSDF sampling by MIS.
+    pub light_sampling: bool,
 }
 
 /// Counts for the summary.
@@ -41,6 +65,8 @@ pub struct Stats {
     pub out_of_steps: u64,
     /// Samples whose radiance came out NaN or infinite, dropped from the image.
     pub dropped: u64,
+    /// Shadow rays traced for next-event estimation.
+    pub shadow_rays: u64,
 }
 
 impl std::ops::AddAssign for Stats {
@@ -49,6 +75,7 @@ impl std::ops::AddAssign for Stats {
         self.evaluations += o.evaluations;
         self.out_of_steps += o.out_of_steps;
         self.dropped += o.dropped;
+        self.shadow_rays += o.shadow_rays;
     }
 }
 
@@ -123,6 +150,13 @@ struct Path {
     flight: bool,
     /// Still on the camera ray (no surface recorded in the first-hit buffers yet).
     primary: bool,
+    /// The solid-angle pdf with which the current segment's direction was drawn at its vertex,
+    /// when a light sample was also taken there (for the MIS weight of a light this segment
+    /// hits); 0 when the segment's light hits take weight 1.
+    mis_pdf: f64,
+    /// The vertex that light sample was drawn from: the surface point itself (the segment
+    /// starts a little off it), or the scattering point in a medium.
+    mis_from: DVec4,
 }
 
 impl Path {
@@ -139,10 +173,28 @@ struct Pending {
     object: u32,
 }
 
+/// A light sample waiting for its shadow ray: what it adds to path `path` if the ray's first
+/// hit is object `object`, before attenuation by `exp(-sigma_t t)`.
+struct Shadow {
+    path: u32,
+    object: u32,
+    sigma_t: f64,
+    contribution: DVec3,
+}
+
+/// The shadow rays of one wavefront.
+#[derive(Default)]
+struct Shadows {
+    pending: Vec<Shadow>,
+    rays: Vec<Ray>,
+    hits: Vec<Hit>,
+}
+
 /// Per-thread scratch space, reused across tiles.
 #[derive(Default)]
 pub struct Scratch {
     marcher: Marcher,
+    shadows: Shadows,
     paths: Vec<Path>,
     rays: Vec<Ray>,
     hits: Vec<Hit>,
@@ -204,6 +256,8 @@ pub fn render_tile(
                     stack: initial,
                     flight: false,
                     primary: true,
+                    mis_pdf: 0.0,
+                    mis_from: DVec4::ZERO,
                 });
             }
         }
@@ -254,6 +308,7 @@ fn trace(
 ) {
     let Scratch {
         marcher,
+        shadows,
         paths,
         rays,
         hits,
@@ -266,6 +321,10 @@ fn trace(
     let grad = grad.get_or_insert_with(|| Regs { r: vec![] });
     let regs = regs.get_or_insert_with(|| Regs { r: vec![] });
     let interior = fs.interior.as_ref().filter(|_| fs.features.interiors);
+    let nee = Nee {
+        lights: (s.light_sampling && !fs.lights.is_empty()).then_some(&fs.lights),
+        interior: interior.is_some(),
+    };
     while !paths.is_empty() {
         rays.clear();
         for path in paths.iter_mut() {
@@ -292,6 +351,8 @@ fn trace(
 
         // Resolve everything but surface hits; collect those.
         pending.clear();
+        shadows.pending.clear();
+        shadows.rays.clear();
         let mut alive = vec![true; paths.len()];
         for (i, path) in paths.iter_mut().enumerate() {
             match hits[i] {
@@ -300,7 +361,8 @@ fn trace(
                     alive[i] = false;
                 }
                 Hit::Beyond if path.flight => {
-                    alive[i] = scatter_in_medium(path, rays[i].tmax, fs, s);
+                    alive[i] =
+                        scatter_in_medium(path, i as u32, rays[i].tmax, fs, s, &nee, shadows);
                 }
                 Hit::Beyond => {
                     path.radiance += path.beta * fs.sky;
@@ -338,8 +400,37 @@ fn trace(
                     debug_assert_eq!(outputs.len(), n_out);
                     let surface = object.layout.surface(outputs);
                     let path = &mut paths[h.path as usize];
-                    let alive_now = shade(path, h, n, surface, s, &mut sums[path.pixel as usize]);
+                    let pixel = &mut sums[path.pixel as usize];
+                    let alive_now = shade(path, h, n, surface, fs, s, &nee, shadows, pixel);
                     alive[h.path as usize] = alive_now;
+                }
+            }
+        }
+
+        // Shadow rays of the light samples taken above, all at once.
+        if !shadows.pending.is_empty() {
+            let before = marcher.evaluations;
+            let t = fs.t as f32;
+            marcher.march(
+                &fs.scene,
+                interior,
+                t,
+                &shadows.rays,
+                s.limits,
+                &mut shadows.hits,
+            );
+            stats.evaluations += marcher.evaluations - before;
+            stats.shadow_rays += shadows.rays.len() as u64;
+            for (sh, hit) in shadows.pending.iter().zip(&shadows.hits) {
+                if let Hit::Surface { t, object } = *hit
+                    && object == sh.object as usize
+                {
+                    let transmittance = if sh.sigma_t > 0.0 {
+                        (-sh.sigma_t * t).exp()
+                    } else {
+                        1.0
+                    };
+                    paths[sh.path as usize].radiance += sh.contribution * transmittance;
                 }
             }
         }
@@ -408,8 +499,94 @@ fn survive(path: &mut Path, s: &Settings) -> bool {
     path.beta.max_element() > 0.0
 }
 
+/// What next-event estimation needs to know about the frame.
+struct Nee<'a> {
+    /// The lights to sample; `None` when light sampling is off or there are none.
+    lights: Option<&'a Lights>,
+    /// Rays inside objects march on the interior tape.
+    interior: bool,
+}
+
+impl Nee<'_> {
+    /// Take one light sample at `x`, the vertex path `index` is at (after its scattering
+    /// albedo is in `beta`), and queue its shadow ray, which leaves from `origin` (`x` lifted
+    /// off its surface, as the path's own next segment is). `lobe(wo)` gives the scattering
+    /// function times `|cos|` (the phase function in a medium) towards the world direction
+    /// `wo`, and the pdf with which the path would draw `wo` itself. Returns whether a light
+    /// sample was taken, i.e. whether this vertex's BSDF rays must be MIS-weighted (the caller
+    /// then sets `mis_pdf`; `mis_from` is set here).
+    #[allow(clippy::too_many_arguments)]
+    fn sample(
+        &self,
+        path: &mut Path,
+        index: u32,
+        x: DVec4,
+        origin: DVec4,
+        medium: Medium,
+        lobe: impl Fn(DVec4) -> (DVec3, f64),
+        shadows: &mut Shadows,
+    ) -> bool {
+        let Some(lights) = self.lights else {
+            return false;
+        };
+        let select: f64 = path.rng.random();
+        let u = path.u3();
+        path.mis_from = x;
+        let Some(ls) = lights.sample(x, select, u) else {
+            return true;
+        };
+        let (f, pdf_bsdf) = lobe(ls.wo);
+        // Nothing towards the light (below the surface, or a NaN from a degenerate lobe).
+        if f.max_element().is_nan() || f.max_element() <= 0.0 {
+            return true;
+        }
+        // Power heuristic: L f / p_light * p_light^2 / (p_light^2 + p_bsdf^2), written so
+        // that a tiny cone's huge pdf cannot overflow.
+        let ratio = pdf_bsdf / ls.pdf;
+        let light = &lights.lights()[ls.light];
+        let contribution = path.beta * f * light.radiance / (ls.pdf * (1.0 + ratio * ratio));
+        if !contribution.is_finite() || contribution.max_element() <= 0.0 {
+            return true;
+        }
+        shadows.pending.push(Shadow {
+            path: index,
+            object: light.object,
+            sigma_t: medium.sigma_t.max(0.0),
+            contribution,
+        });
+        shadows.rays.push(Ray {
+            o: origin,
+            d: ls.wo,
+            // Past the centre by the radius: a ray from `origin` that meets the ball at all
+            // meets it before that, though `origin` is a little nearer than `x`.
+            tmax: ls.distance + light.radius,
+            interior: path.stack.len > 0 && self.interior,
+        });
+        true
+    }
+
+    /// The MIS weight of emission `path` reaches on a BSDF-sampled segment at `object`.
+    fn weight(&self, path: &Path, object: u32) -> Option<f64> {
+        let lights = self.lights?;
+        if path.mis_pdf <= 0.0 {
+            return None;
+        }
+        let light = lights.of_object(object)?;
+        let ratio = lights.pdf(light, path.mis_from) / path.mis_pdf;
+        Some(1.0 / (1.0 + ratio * ratio))
+    }
+}
+
 /// A real scattering event in the current medium, `t` along the segment.
-fn scatter_in_medium(path: &mut Path, t: f64, fs: &FrameScene, s: &Settings) -> bool {
+fn scatter_in_medium(
+    path: &mut Path,
+    index: u32,
+    t: f64,
+    fs: &FrameScene,
+    s: &Settings,
+    nee: &Nee,
+    shadows: &mut Shadows,
+) -> bool {
     if path.bounces >= s.bounces {
         return false;
     }
@@ -417,19 +594,31 @@ fn scatter_in_medium(path: &mut Path, t: f64, fs: &FrameScene, s: &Settings) -> 
     path.o += path.d * t;
     path.beta *= m.albedo;
     let u = path.u3();
-    let sample = HenyeyGreenstein::new(m.g).sample(-path.d, u);
+    let phase = HenyeyGreenstein::new(m.g);
+    let wi = -path.d;
+    let lobe = |wo| {
+        let p = phase.eval(wi, wo);
+        (DVec3::splat(p), phase.pdf(wi, wo))
+    };
+    let sampled = nee.sample(path, index, path.o, path.o, m, lobe, shadows);
+    let sample = phase.sample(wi, u);
     path.d = sample.wo;
+    path.mis_pdf = if sampled { sample.pdf } else { 0.0 };
     path.primary = false;
     survive(path, s)
 }
 
 /// Shade one surface hit; false ends the path.
+#[allow(clippy::too_many_arguments)]
 fn shade(
     path: &mut Path,
     h: &Pending,
     n: DVec4,
     surface: Surface,
+    fs: &FrameScene,
     s: &Settings,
+    nee: &Nee,
+    shadows: &mut Shadows,
     pixel: &mut PixelSums,
 ) -> bool {
     let eps = s.limits.epsilon;
@@ -442,6 +631,9 @@ fn shade(
             path.stack.remove(h.object);
         }
         path.o = leave(h.p, if entering { -n } else { n }, eps);
+        // A shadow ray would have stopped at this boundary: light reached through it is BSDF
+        // sampling's alone.
+        path.mis_pdf = 0.0;
         path.crossings += 1;
         return path.crossings <= MAX_CROSSINGS;
     }
@@ -452,7 +644,10 @@ fn shade(
         pixel.position += h.p;
         pixel.depth += h.t;
     }
-    path.radiance += path.beta * surface.emission();
+    match nee.weight(path, h.object) {
+        Some(w) => path.radiance += path.beta * surface.emission() * w,
+        None => path.radiance += path.beta * surface.emission(),
+    }
     if path.bounces >= s.bounces {
         return false;
     }
@@ -479,20 +674,23 @@ fn shade(
             }
             path.d = frame.to_world(b.wo).normalize();
             path.o = leave(h.p, side, eps);
+            path.mis_pdf = 0.0;
         }
         Surface::Diffuse { albedo, .. } => {
-            if !reflect(path, h.p, n, &Lambert { albedo }, u, eps) {
+            let light = Some((fs, nee, h.path, &mut *shadows));
+            if !reflect(path, h.p, n, &Lambert { albedo }, u, eps, light) {
                 return false;
             }
         }
         Surface::Mirror { tint } => {
-            if !reflect(path, h.p, n, &Mirror { tint }, u, eps) {
+            if !reflect(path, h.p, n, &Mirror { tint }, u, eps, None) {
                 return false;
             }
         }
         Surface::Shiny { roughness, color } => {
             let ggx = Ggx::from_roughness(roughness, color);
-            if !reflect(path, h.p, n, &ggx, u, eps) {
+            let light = (!ggx.is_mirror()).then_some((fs, nee, h.path, &mut *shadows));
+            if !reflect(path, h.p, n, &ggx, u, eps, light) {
                 return false;
             }
         }
@@ -500,15 +698,39 @@ fn shade(
     survive(path, s)
 }
 
-/// Scatter off a one-sided reflector, its frame turned towards the side the path came from.
-fn reflect(path: &mut Path, p: DVec4, n: DVec4, bsdf: &dyn Bsdf, u: DVec3, eps: f64) -> bool {
+/// Light sampling at a surface vertex: the frame, the estimator and the path's index.
+type LightSampling<'a, 'b> = Option<(&'a FrameScene, &'a Nee<'b>, u32, &'a mut Shadows)>;
+
+/// Scatter off a one-sided reflector, its frame turned towards the side the path came from;
+/// with `light`, take a light sample there first (the lobe must not be a delta).
+fn reflect(
+    path: &mut Path,
+    p: DVec4,
+    n: DVec4,
+    bsdf: &dyn Bsdf,
+    u: DVec3,
+    eps: f64,
+    light: LightSampling,
+) -> bool {
     let n = if path.d.dot(n) < 0.0 { n } else { -n };
     let frame = Frame::new(n);
-    let Some(b) = bsdf.sample(frame.to_local(-path.d), u) else {
+    let wi = frame.to_local(-path.d);
+    let o = leave(p, n, eps);
+    let mut sampled = false;
+    if let Some((fs, nee, index, shadows)) = light {
+        let m = path.stack.medium(fs.medium);
+        let lobe = |wo_world| {
+            let wo = frame.to_local(wo_world);
+            (bsdf.eval(wi, wo) * wo.w.abs(), bsdf.pdf(wi, wo))
+        };
+        sampled = nee.sample(path, index, p, o, m, lobe, shadows);
+    }
+    let Some(b) = bsdf.sample(wi, u) else {
         return false;
     };
     path.beta *= b.weight;
     path.d = frame.to_world(b.wo).normalize();
-    path.o = leave(p, n, eps);
+    path.o = o;
+    path.mis_pdf = if sampled && !b.delta { b.pdf } else { 0.0 };
     true
 }

@@ -12,6 +12,7 @@ pub mod driver;
 pub mod film;
 pub mod frame;
 pub mod integrator;
+pub mod lights;
 pub mod march;
 pub mod material;
 pub mod phase;

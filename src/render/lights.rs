@@ -1,0 +1,234 @@
+//! Spherical emitters, for next-event estimation (light sampling).
+//!
+//! An object counts as a spherical light when its shape is a `hypersphere` under any chain of
+//! `translate`, `rotate`, `scale` (positive factor) and `round` (parameters constant or
+//! functions of the frame variable `t`), and its material is a plain `light(...)` whose colour
+//! and intensity do not depend on the point or the normal (see `frame.rs`). Every other emitter
+//! (lights of other shapes, emissive `diffuse`, material maps) is found by BSDF sampling alone,
+//! which stays unbiased: the integrator gives those hits MIS weight 1.
+//!
+//! # Sampling a 4D ball by solid angle
+//! Seen from a point `x` at distance `d > R` from the centre, a ball of radius `R` fills the cone
+//! of half-angle `a`, `sin a = R / d`. The cap of S^3 of half-angle `a` has area
+//! `2 pi (a - sin a cos a)` (the S^2 of directions at angle `theta` from the axis has area
+//! `4 pi sin^2 theta`), so a direction uniform in the cone has the constant pdf
+//! `1 / (2 pi (a - sin a cos a))`. Theta has the density `sin^2 theta / (a - sin a cos a) / 2` on
+//! `[0, a]`, inverted by safeguarded Newton; the other two angles are a uniform direction on the
+//! S^2 orthogonal to the axis. Every direction of the cone meets the ball, and only those do, so
+//! the pdf of a direction that hit the ball (found by BSDF sampling) is the same constant.
+
+use super::sampling::{Frame, uniform_s2};
+use glam::{DVec3, DVec4};
+use std::f64::consts::PI;
+
+/// A spherical emitter in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereLight {
+    pub center: DVec4,
+    pub radius: f64,
+    /// Emitted radiance (the same everywhere on the surface and in every direction).
+    pub radiance: DVec3,
+    /// The object's index in the scene (as marching reports it).
+    pub object: u32,
+}
+
+/// One light sample drawn from a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightSample {
+    /// Which light (an index into [`Lights::lights`]).
+    pub light: usize,
+    /// Unit world direction from the point towards the light.
+    pub wo: DVec4,
+    /// Solid-angle pdf of `wo`, the light selection probability included.
+    pub pdf: f64,
+    /// Distance from the point to the light's centre: a shadow ray that gets this far without
+    /// meeting the light has missed it.
+    pub distance: f64,
+}
+
+/// `theta - sin(theta) cos(theta)`, accurate for small `theta` too, where the difference
+/// cancels (`~ 2 theta^3 / 3`): a series below 0.1 (relative error < 1e-15).
+pub fn cap_integral(theta: f64) -> f64 {
+    if theta < 0.1 {
+        let t2 = theta * theta;
+        // 2t^3/3 - 2t^5/15 + 4t^7/315 - 2t^9/2835 + 4t^11/155925
+        let series = 2.0 / 3.0
+            + t2 * (-2.0 / 15.0
+                + t2 * (4.0 / 315.0 + t2 * (-2.0 / 2835.0 + t2 * (4.0 / 155925.0))));
+        theta * t2 * series
+    } else {
+        theta - 0.5 * (2.0 * theta).sin()
+    }
+}
+
+/// Area of the cap of the unit 3-sphere with half-angle `a`: `2 pi (a - sin a cos a)`
+/// (`2 pi^2`, the whole of S^3, at `a = pi`).
+pub fn cap_area(a: f64) -> f64 {
+    2.0 * PI * cap_integral(a)
+}
+
+/// The half-angle of the cone a ball of radius `r` fills, seen from distance `d`; `None` when
+/// the point is inside the ball or on its surface (`d <= r`), or the values are not usable.
+pub fn cone_half_angle(d: f64, r: f64) -> Option<f64> {
+    if !(d.is_finite() && r > 0.0 && d > r) {
+        return None;
+    }
+    let a = (r / d).asin();
+    (a > 0.0).then_some(a)
+}
+
+/// Solid-angle pdf of [`sample_ball`] from a point at distance `d` from the centre of a ball
+/// of radius `r` (for any direction inside the cone); 0 where no sample can be drawn.
+pub fn ball_pdf(d: f64, r: f64) -> f64 {
+    match cone_half_angle(d, r) {
+        Some(a) => 1.0 / cap_area(a),
+        None => 0.0,
+    }
+}
+
+/// The angle from the axis of a direction uniform in the cone of half-angle `a` (in `(0, pi]`),
+/// from a uniform `u` in `[0, 1)`: solves `g(theta) = u g(a)`, `g = theta - sin cos`, whose
+/// derivative is `2 sin^2 theta`. Newton from the small-angle guess `(3 y / 2)^(1/3)`, kept in a
+/// shrinking bisection bracket (a step that leaves it, or meets the flat start of `g` near 0,
+/// becomes a bisection step).
+pub fn sample_cone_theta(a: f64, u: f64) -> f64 {
+    let y = u.clamp(0.0, 1.0) * cap_integral(a);
+    let (mut lo, mut hi) = (0.0, a);
+    let mut theta = (1.5 * y).cbrt().clamp(0.0, a);
+    for _ in 0..100 {
+        let f = cap_integral(theta) - y;
+        if f > 0.0 {
+            hi = theta;
+        } else {
+            lo = theta;
+        }
+        let s = theta.sin();
+        let newton = theta - f / (2.0 * s * s);
+        let next = if newton > lo && newton < hi {
+            newton
+        } else {
+            0.5 * (lo + hi)
+        };
+        let step = (next - theta).abs();
+        theta = next;
+        if step <= 1e-15 * a || hi - lo <= 1e-15 * a {
+            break;
+        }
+    }
+    theta
+}
+
+/// A direction uniform in the solid angle of the ball (`center`, `radius`) seen from `x`, and
+/// its pdf and the distance to the centre; `None` when `x` is inside the ball.
+pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DVec4, f64, f64)> {
+    let to = center - x;
+    let d = to.length();
+    let a = cone_half_angle(d, radius)?;
+    let axis = to / d;
+    let theta = sample_cone_theta(a, u.x);
+    let (sin_t, cos_t) = theta.sin_cos();
+    let local = (sin_t * uniform_s2(u.y, u.z)).extend(cos_t);
+    let wo = Frame::new(axis).to_world(local).normalize();
+    Some((wo, 1.0 / cap_area(a), d))
+}
+
+/// The spherical lights of one frame, chosen in proportion to their power
+/// (`radiance * radius^3`, the mean of the three channels).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Lights {
+    lights: Vec<SphereLight>,
+    /// Selection probability of each light, and their running sum.
+    probability: Vec<f64>,
+    cumulative: Vec<f64>,
+    /// For every object index, its light, if it is one.
+    by_object: Vec<Option<u32>>,
+}
+
+impl Lights {
+    /// The lights among `objects` objects; lights that emit nothing, or have no usable size,
+    /// are left out (BSDF sampling still finds them).
+    pub fn new(candidates: Vec<SphereLight>, objects: usize) -> Lights {
+        let power = |l: &SphereLight| {
+            let p = l.radiance.element_sum() / 3.0 * l.radius.powi(3);
+            if p.is_finite() { p } else { 0.0 }
+        };
+        let lights: Vec<SphereLight> = candidates
+            .into_iter()
+            .filter(|l| {
+                l.center.is_finite()
+                    && l.radius.is_finite()
+                    && l.radius > 0.0
+                    && l.radiance.is_finite()
+                    && power(l) > 0.0
+                    && (l.object as usize) < objects
+            })
+            .collect();
+        let total: f64 = lights.iter().map(power).sum();
+        let probability: Vec<f64> = lights.iter().map(|l| power(l) / total).collect();
+        let mut cumulative = Vec::with_capacity(lights.len());
+        let mut acc = 0.0;
+        for p in &probability {
+            acc += p;
+            cumulative.push(acc);
+        }
+        let mut by_object = vec![None; objects];
+        for (i, l) in lights.iter().enumerate() {
+            by_object[l.object as usize] = Some(i as u32);
+        }
+        Lights {
+            lights,
+            probability,
+            cumulative,
+            by_object,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.lights.is_empty()
+    }
+
+    pub fn lights(&self) -> &[SphereLight] {
+        &self.lights
+    }
+
+    /// The probability with which [`Lights::sample`] picks light `i`.
+    pub fn probability(&self, i: usize) -> f64 {
+        self.probability[i]
+    }
+
+    /// The light that object `object` is, if any.
+    pub fn of_object(&self, object: u32) -> Option<usize> {
+        self.by_object
+            .get(object as usize)
+            .copied()
+            .flatten()
+            .map(|i| i as usize)
+    }
+
+    /// Pick a light with `select` and a direction towards it with `u` (uniforms in `[0, 1)`).
+    /// `None` when there are no lights, or `x` is inside the one picked.
+    pub fn sample(&self, x: DVec4, select: f64, u: DVec3) -> Option<LightSample> {
+        if self.lights.is_empty() {
+            return None;
+        }
+        let i = self
+            .cumulative
+            .partition_point(|&c| c <= select)
+            .min(self.lights.len() - 1);
+        let l = &self.lights[i];
+        let (wo, pdf, distance) = sample_ball(x, l.center, l.radius, u)?;
+        Some(LightSample {
+            light: i,
+            wo,
+            pdf: pdf * self.probability[i],
+            distance,
+        })
+    }
+
+    /// The pdf with which [`Lights::sample`] draws a direction from `x` that meets light `i`
+    /// (selection included); 0 where it cannot (`x` inside the light).
+    pub fn pdf(&self, i: usize, x: DVec4) -> f64 {
+        let l = &self.lights[i];
+        ball_pdf((l.center - x).length(), l.radius) * self.probability[i]
+    }
+}
