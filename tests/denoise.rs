@@ -84,13 +84,12 @@ fn gaussian(rng: &mut Pcg64) -> f64 {
 /// noise-free), with the standard error set to `sigma`.
 fn noisy(truth: &Film, region: &[u8], sigma: f64, rng: &mut Pcg64) -> Film {
     let mut f = truth.clone();
-    for p in 0..f.color.len() {
-        if region[p] == SKY {
+    for ((c, s), r) in f.color.iter_mut().zip(&mut f.std_error).zip(region) {
+        if *r == SKY {
             continue;
         }
-        let n = DVec3::new(gaussian(rng), gaussian(rng), gaussian(rng));
-        f.color[p] += sigma * n;
-        f.std_error[p] = DVec3::splat(sigma);
+        *c += sigma * DVec3::new(gaussian(rng), gaussian(rng), gaussian(rng));
+        *s = DVec3::splat(sigma);
     }
     f
 }
@@ -734,7 +733,10 @@ fn filter_from_scene_setting() {
 #[test]
 #[ignore = "timing"]
 fn timing() {
-    let n: usize = std::env::var("DN_SIZE").ok().and_then(|s| s.parse().ok()).unwrap_or(512);
+    let n: usize = std::env::var("DN_SIZE")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(512);
     let big = Film::new(n, n);
     let mut frames = vec![big.clone(), big.clone(), big];
     let mut rng = Pcg64::seed_from_u64(10);

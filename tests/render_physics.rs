@@ -473,3 +473,82 @@ fn tiny_and_very_wide_images_and_single_frames() {
     assert_eq!(driver::frame_time(0, 1), 0.0);
     assert_eq!(driver::frame_time(4, 5), 1.0);
 }
+
+// ---- Progressive and adaptive rendering ----------------------------------------------------
+
+#[test]
+fn a_time_budget_stops_early_with_every_pixel_sampled() {
+    let src = open_furnace(
+        "object a { shape = hypersphere(1) material = diffuse(albedo: rgb(1)) }",
+        64,
+        1_000_000,
+    );
+    let budget = Duration::from_millis(400);
+    let r = render_with(
+        &src,
+        Options {
+            time_budget: Some(budget),
+            ..Options::default()
+        },
+    );
+    // A pass starts only if it is expected to fit, so overrunning takes a misestimate.
+    assert!(r.elapsed < budget * 3, "{:?}", r.elapsed);
+    let spp = r.frames[0].samples[0];
+    assert!(spp >= 2 && spp < 1_000_000, "{spp}");
+    assert!(r.frames[0].samples.iter().all(|n| *n == spp));
+    assert_every_pixel("budget", &r, 1.0);
+}
+
+#[test]
+fn progressive_passes_take_exactly_spp_samples() {
+    let src = open_furnace(
+        // The ball fills the view, so every pixel is noisy and none stops early.
+        "object a { shape = hypersphere(3) material = shiny(roughness: 0.6, color: rgb(0.7)) }",
+        8,
+        37,
+    );
+    let r = render_with(
+        &src,
+        Options {
+            noise_threshold: Some(0.0),
+            ..Options::default()
+        },
+    );
+    assert!(r.frames[0].samples.iter().all(|n| *n == 37));
+    let once = render(&src);
+    let (a, sa) = mean_and_error(&r);
+    let (b, sb) = mean_and_error(&once);
+    assert!((a - b).length() < 4.0 * (sa + sb).length(), "{a} vs {b}");
+}
+
+#[test]
+fn adaptive_sampling_spends_samples_where_the_noise_is() {
+    // Sky pixels have no variance and stop after the minimum; pixels on the rough ball go on.
+    let src = open_furnace(
+        "object a { shape = hypersphere(1) material = shiny(roughness: 0.6, color: rgb(0.7)) }",
+        8,
+        1024,
+    );
+    let r = render_with(
+        &src,
+        Options {
+            noise_threshold: Some(0.01),
+            ..Options::default()
+        },
+    );
+    let film = &r.frames[0];
+    let (min, max) = (
+        *film.samples.iter().min().unwrap(),
+        *film.samples.iter().max().unwrap(),
+    );
+    assert_eq!(min, driver::ADAPTIVE_MIN);
+    assert!(max > 4 * min, "{max}");
+    for (c, e) in film.color.iter().zip(&film.std_error) {
+        let l = hyperslice::metrics::luminance(*c);
+        let el = hyperslice::metrics::luminance(*e);
+        assert!(
+            el <= 0.011 * l.max(1e-3) || film.samples.contains(&1024),
+            "{l} {el}"
+        );
+    }
+}

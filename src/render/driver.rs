@@ -1,9 +1,13 @@
-//! Rendering a whole animation: frames one after another, each frame's tiles spread over a
+//! Rendering a whole animation: the (frame, tile) pieces of a group of frames spread over a
 //! rayon pool. Every sample's random stream depends only on the seed, frame, pixel and sample
 //! index, so the result is bit-identical whatever the number of threads.
+//!
+//! Samples are taken in passes (1, 1, 2, 4, 8, ... per pixel) when the render is progressive:
+//! with a time budget, a pass starts only if it is expected to end within the budget; with a
+//! noise threshold, a pixel stops taking samples once its relative standard error is below it.
 
-use super::film::Film;
-use super::frame::Prepared;
+use super::film::{Film, PixelSums};
+use super::frame::{FrameScene, Prepared};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
 use crate::check::Scene;
@@ -13,6 +17,11 @@ use std::time::{Duration, Instant};
 
 /// Tile edge in pixels.
 const TILE: u32 = 16;
+/// Samples a pixel takes before adaptive sampling judges its noise.
+pub const ADAPTIVE_MIN: u32 = 16;
+/// Frames prepared and rendered together when the render is not progressive (a progressive
+/// render keeps every frame's tapes for all its passes).
+const FRAME_GROUP: usize = 16;
 
 /// Choices of a render that are not part of the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -28,6 +37,12 @@ pub struct Options {
     /// Next-event estimation towards spherical lights, combined with BSDF sampling by multiple
     /// importance sampling (on by default). Off, the estimator is pure BSDF sampling.
     pub light_sampling: bool,
+    /// Progressive rendering: stop taking samples once this much time is spent (after at
+    /// least one sample per pixel), up to the scene's `spp`.
+    pub time_budget: Option<Duration>,
+    /// Adaptive sampling: a pixel stops once the standard error of its luminance is below
+    /// this fraction of its mean luminance (judged after `ADAPTIVE_MIN` samples).
+    pub noise_threshold: Option<f64>,
 }
 
 impl Default for Options {
@@ -37,6 +52,8 @@ impl Default for Options {
             roulette_from: 3,
             general: false,
             light_sampling: true,
+            time_budget: None,
+            noise_threshold: None,
         }
     }
 }
@@ -56,13 +73,54 @@ pub fn frame_time(f: u32, frames: u32) -> f64 {
     }
 }
 
-/// Samples a render takes in all, for progress bars.
+/// Samples a render takes at most, for progress bars.
 pub fn total_samples(scene: &Scene) -> u64 {
     let r = &scene.render;
     r.width as u64 * r.height as u64 * r.spp as u64 * r.frames as u64
 }
 
-/// Render every frame of `scene`; `progress` is told how many samples each finished tile took.
+/// The sample ranges of the passes: everything at once, or 1, 1, 2, 4, ... up to `spp`.
+fn passes(spp: u32, progressive: bool) -> Vec<std::ops::Range<u32>> {
+    if !progressive {
+        return vec![0..spp];
+    }
+    let mut out = vec![];
+    let mut start = 0;
+    while start < spp {
+        let end = (start + start.max(1)).min(spp);
+        out.push(start..end);
+        start = end;
+    }
+    out
+}
+
+/// Whether a pixel's estimate is still noisier than `threshold` (relative standard error of
+/// its luminance).
+fn noisy(s: &PixelSums, threshold: f64) -> bool {
+    if s.samples < ADAPTIVE_MIN {
+        return true;
+    }
+    let n = s.samples as f64;
+    let lum = |c: glam::DVec3| crate::metrics::luminance(c);
+    let mean = lum(s.radiance) / n;
+    let var = (lum(s.radiance_sq) / n - mean * mean).max(0.0);
+    // Channel squares summed with luminance weights bound the luminance's second moment
+    // from above (Jensen), so this errs on the side of sampling more.
+    let error = (var / (n - 1.0)).sqrt();
+    error > threshold * mean.max(1e-3)
+}
+
+/// One frame in flight: its tapes, the media around the camera, and per tile the pixel sums
+/// and which pixels still take samples.
+struct Work {
+    index: u32,
+    scene: FrameScene,
+    initial: Stack,
+    sums: Vec<Vec<PixelSums>>,
+    active: Vec<Vec<bool>>,
+}
+
+/// Render every frame of `scene`; `progress` is told how many samples each piece of work took.
 pub fn render(
     scene: &Scene,
     options: &Options,
@@ -89,7 +147,6 @@ pub fn render(
     let settings = Settings {
         width: r.width,
         height: r.height,
-        spp: r.spp,
         bounces: r.bounces,
         limits: Limits {
             epsilon: r.epsilon,
@@ -110,36 +167,115 @@ pub fn render(
             })
         })
         .collect();
+    let progressive = options.time_budget.is_some() || options.noise_threshold.is_some();
+    let group = if progressive {
+        r.frames as usize
+    } else {
+        FRAME_GROUP
+    };
     let mut frames = vec![];
     let mut stats = Stats::default();
-    for f in 0..r.frames {
-        let fs = prepared.frame(frame_time(f, r.frames));
-        let initial = Stack::at_camera(&fs, r.epsilon);
-        let results: Vec<_> = pool.install(|| {
-            tiles
-                .par_iter()
-                .map_init(Scratch::default, |scratch, tile| {
-                    let mut st = Stats::default();
-                    let sums = integrator::render_tile(
-                        &fs, &settings, f, *tile, initial, scratch, &mut st,
-                    );
-                    progress(st.samples);
-                    (sums, st)
-                })
-                .collect()
-        });
-        let mut film = Film::new(r.width as usize, r.height as usize);
-        for (tile, (sums, st)) in tiles.iter().zip(results) {
-            stats += st;
-            for (k, s) in sums.iter().enumerate() {
-                let (x, y) = (
-                    tile.x + k as u32 % tile.width,
-                    tile.y + k as u32 / tile.width,
-                );
-                film.set((y * r.width + x) as usize, s);
+    let all: Vec<u32> = (0..r.frames).collect();
+    for indices in all.chunks(group) {
+        let mut work: Vec<Work> = indices
+            .iter()
+            .map(|&f| {
+                let fs = prepared.frame(frame_time(f, r.frames));
+                let initial = Stack::at_camera(&fs, r.epsilon);
+                let n = |t: &Tile| (t.width * t.height) as usize;
+                Work {
+                    index: f,
+                    scene: fs,
+                    initial,
+                    sums: tiles
+                        .iter()
+                        .map(|t| vec![PixelSums::default(); n(t)])
+                        .collect(),
+                    active: tiles.iter().map(|t| vec![true; n(t)]).collect(),
+                }
+            })
+            .collect();
+        let mut spent_per_sample = None;
+        for pass in passes(r.spp, progressive) {
+            let busy: usize = work
+                .iter()
+                .flat_map(|w| &w.active)
+                .map(|a| a.iter().filter(|x| **x).count())
+                .sum();
+            if busy == 0 {
+                break;
+            }
+            if let (Some(budget), Some(per)) = (options.time_budget, spent_per_sample) {
+                let expected = per * (busy as f64 * pass.len() as f64);
+                if start.elapsed().as_secs_f64() + expected > budget.as_secs_f64() {
+                    break;
+                }
+            }
+            let pass_start = Instant::now();
+            let taken: Stats = pool.install(|| {
+                work.par_iter_mut()
+                    .flat_map(|w| {
+                        let (scene, initial, index) = (&w.scene, w.initial, w.index);
+                        (w.sums.par_iter_mut().zip(&w.active).zip(&tiles)).map(
+                            move |((sums, active), tile)| {
+                                (scene, initial, index, sums, active, tile)
+                            },
+                        )
+                    })
+                    .map_init(
+                        Scratch::default,
+                        |scratch, (fs, initial, f, sums, active, tile)| {
+                            let mut st = Stats::default();
+                            if active.iter().any(|a| *a) {
+                                integrator::render_tile(
+                                    fs,
+                                    &settings,
+                                    f,
+                                    *tile,
+                                    pass.clone(),
+                                    active,
+                                    initial,
+                                    scratch,
+                                    &mut st,
+                                    sums,
+                                );
+                            }
+                            progress(st.samples);
+                            st
+                        },
+                    )
+                    .reduce(Stats::default, |mut a, b| {
+                        a += b;
+                        a
+                    })
+            });
+            if taken.samples > 0 {
+                spent_per_sample = Some(pass_start.elapsed().as_secs_f64() / taken.samples as f64);
+            }
+            stats += taken;
+            if let Some(threshold) = options.noise_threshold {
+                for w in &mut work {
+                    for (sums, active) in w.sums.iter().zip(&mut w.active) {
+                        for (s, a) in sums.iter().zip(active.iter_mut()) {
+                            *a = *a && noisy(s, threshold);
+                        }
+                    }
+                }
             }
         }
-        frames.push(film);
+        for w in work {
+            let mut film = Film::new(r.width as usize, r.height as usize);
+            for (tile, sums) in tiles.iter().zip(&w.sums) {
+                for (k, s) in sums.iter().enumerate() {
+                    let (x, y) = (
+                        tile.x + k as u32 % tile.width,
+                        tile.y + k as u32 / tile.width,
+                    );
+                    film.set((y * r.width + x) as usize, s);
+                }
+            }
+            frames.push(film);
+        }
     }
     Ok(Rendered {
         frames,

@@ -37,6 +37,8 @@ pub struct Film {
     pub normal: Vec<DVec4>,
     pub position: Vec<DVec4>,
     pub depth: Vec<f64>,
+    /// Samples each pixel took (they differ under adaptive sampling).
+    pub samples: Vec<u32>,
 }
 
 impl Film {
@@ -51,6 +53,7 @@ impl Film {
             normal: vec![DVec4::ZERO; n],
             position: vec![DVec4::ZERO; n],
             depth: vec![0.0; n],
+            samples: vec![0; n],
         }
     }
 
@@ -69,6 +72,7 @@ impl Film {
         self.normal[i] = s.normal / n;
         self.position[i] = s.position / n;
         self.depth[i] = s.depth / n;
+        self.samples[i] = s.samples;
     }
 
     /// The radiance as a linear-HDR image for output.

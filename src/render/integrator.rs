@@ -42,7 +42,6 @@ use rand_pcg::Pcg32;
 pub struct Settings {
     pub width: u32,
     pub height: u32,
-    pub spp: u32,
     /// Most scattering events of one path.
     pub bounces: u32,
     pub limits: Limits,
@@ -219,24 +218,29 @@ fn stream(seed: u64, frame: u32, pixel: u64, sample: u32) -> Pcg32 {
     Pcg32::seed_from_u64(mix(key))
 }
 
-/// Render `tile` of frame `frame`; returns each pixel's sums, row-major within the tile.
+/// Take samples `samples` of every pixel of `tile` in frame `frame` whose entry in `active`
+/// (row-major within the tile) is true, adding them to `sums`.
+#[allow(clippy::too_many_arguments)]
 pub fn render_tile(
     fs: &FrameScene,
     s: &Settings,
     frame: u32,
     tile: Tile,
+    samples: std::ops::Range<u32>,
+    active: &[bool],
     initial: Stack,
     scratch: &mut Scratch,
     stats: &mut Stats,
-) -> Vec<PixelSums> {
+    sums: &mut [PixelSums],
+) {
     let pixels = (tile.width * tile.height) as usize;
-    let mut sums = vec![PixelSums::default(); pixels];
-    let per_batch = (BATCH / pixels.max(1)).max(1) as u32;
-    let mut first = 0;
-    while first < s.spp {
-        let last = (first + per_batch).min(s.spp);
+    let busy = active.iter().filter(|a| **a).count();
+    let per_batch = (BATCH / busy.max(1)).max(1) as u32;
+    let mut first = samples.start;
+    while first < samples.end {
+        let last = (first + per_batch).min(samples.end);
         scratch.paths.clear();
-        for k in 0..pixels as u32 {
+        for k in (0..pixels as u32).filter(|&k| active[k as usize]) {
             let (px, py) = (tile.x + k % tile.width, tile.y + k / tile.width);
             let global = py as u64 * s.width as u64 + px as u64;
             for sample in first..last {
@@ -261,10 +265,9 @@ pub fn render_tile(
                 });
             }
         }
-        trace(fs, s, scratch, &mut sums, stats);
+        trace(fs, s, scratch, sums, stats);
         first = last;
     }
-    sums
 }
 
 impl Stack {
