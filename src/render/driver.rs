@@ -82,7 +82,7 @@ pub fn total_samples(scene: &Scene) -> u64 {
 /// The sample ranges of the passes: everything at once, or 1, 1, 2, 4, ... up to `spp`.
 fn passes(spp: u32, progressive: bool) -> Vec<std::ops::Range<u32>> {
     if !progressive {
-        return vec![0..spp];
+        return std::iter::once(0..spp).collect();
     }
     let mut out = vec![];
     let mut start = 0;
