@@ -9,6 +9,7 @@ use hyperslice::render::driver::{self, Options};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::time::Duration;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -51,6 +52,60 @@ pub struct RenderArgs {
     /// Frames per second of the animation, in (0, 100].
     #[arg(long, value_parser = parse_positive)]
     fps: Option<f64>,
+    /// Denoising filter applied to the frames.
+    #[arg(long)]
+    denoise: Option<DenoiseArg>,
+    /// Render progressively and stop when this much time is spent (e.g. 30s, 2m, 500ms); `spp`
+    /// becomes the most samples a pixel takes (default then 1000000).
+    #[arg(long, value_parser = parse_duration)]
+    time_budget: Option<Duration>,
+    /// Adaptive sampling: a pixel stops once the standard error of its luminance is below this
+    /// fraction of its mean (e.g. 0.02); `spp` is the most it takes.
+    #[arg(long, value_parser = parse_fraction)]
+    noise_threshold: Option<f64>,
+    /// Next-event estimation towards spherical lights (with multiple importance sampling).
+    #[arg(long, default_value = "on")]
+    light_sampling: Switch,
+}
+
+#[derive(Clone, Copy, clap::ValueEnum)]
+enum DenoiseArg {
+    None,
+    Median,
+    Atrous,
+}
+
+#[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+enum Switch {
+    On,
+    Off,
+}
+
+fn parse_duration(s: &str) -> Result<Duration, String> {
+    let err = || format!("`{s}` is not a duration; write e.g. 30s, 2m or 500ms");
+    let (number, unit) = s
+        .find(|c: char| c.is_ascii_alphabetic())
+        .map_or((s, "s"), |i| s.split_at(i));
+    let x: f64 = number.trim().parse().map_err(|_| err())?;
+    let seconds = match unit {
+        "ms" => x / 1e3,
+        "s" => x,
+        "m" | "min" => x * 60.0,
+        "h" => x * 3600.0,
+        _ => return Err(err()),
+    };
+    if seconds.is_finite() && seconds > 0.0 && seconds < 1e7 {
+        Ok(Duration::from_secs_f64(seconds))
+    } else {
+        Err(err())
+    }
+}
+
+fn parse_fraction(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
+        _ => Err(format!("`{s}` is not in (0, 1)")),
+    }
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -100,8 +155,18 @@ impl RenderArgs {
         if let Some((w, h)) = self.size {
             (r.width, r.height) = (w, h);
         }
+        if (self.time_budget.is_some() || self.noise_threshold.is_some()) && self.spp.is_none() {
+            r.spp = 1_000_000;
+        }
         macro_rules! set { ($($f:ident)*) => { $(if let Some(v) = self.$f { r.$f = v; })* } }
         set!(frames spp bounces epsilon max_steps seed threads exposure fps);
+        if let Some(d) = self.denoise {
+            r.denoise = match d {
+                DenoiseArg::None => Denoise::None,
+                DenoiseArg::Median => Denoise::Median,
+                DenoiseArg::Atrous => Denoise::Atrous,
+            };
+        }
     }
 }
 
@@ -122,9 +187,6 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
         return ExitCode::FAILURE;
     }
     let r = &scene.render;
-    if r.denoise != Denoise::None {
-        eprintln!("note: denoising is not implemented yet; rendering without it");
-    }
     eprintln!(
         "rendering {}: {} x {}, {} frame{}, {} spp, {} bounces",
         args.file.display(),
@@ -135,16 +197,31 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
         r.spp,
         r.bounces
     );
-    let total = driver::total_samples(&scene);
-    let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template(
-            "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {per_sec} samples",
-        )
-        .expect("a valid template"),
-    );
+    // A progressive render's length is its time budget, or unknown: the bar then shows the
+    // samples taken and their rate.
+    let bar = if args.time_budget.is_some() || args.noise_threshold.is_some() {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {elapsed_precise} {pos} samples, {per_sec}")
+                .expect("a valid template"),
+        );
+        bar
+    } else {
+        let total = driver::total_samples(&scene);
+        let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {per_sec} samples",
+            )
+            .expect("a valid template"),
+        );
+        bar
+    };
     let options = Options {
         threads: (r.threads > 0).then_some(r.threads as usize),
+        light_sampling: args.light_sampling == Switch::On,
+        time_budget: args.time_budget,
+        noise_threshold: args.noise_threshold,
         ..Options::default()
     };
     let rendered = match driver::render(&scene, &options, &|n| bar.inc(n)) {
@@ -170,12 +247,21 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
     };
     let s = &rendered.stats;
     let secs = rendered.elapsed.as_secs_f64();
+    let pixels = r.width as f64 * r.height as f64 * r.frames as f64;
     eprintln!(
-        "rendered in {secs:.2} s: {} samples ({:.0}/s), {} distance evaluations",
+        "rendered in {secs:.2} s: {} samples ({:.0}/s, {:.1} per pixel), {} distance evaluations",
         s.samples,
         s.samples as f64 / secs.max(1e-9),
+        s.samples as f64 / pixels,
         s.evaluations
     );
+    if r.denoise != Denoise::None {
+        eprintln!(
+            "denoised ({:?}) in {:.2} s",
+            r.denoise,
+            rendered.denoise_time.as_secs_f64()
+        );
+    }
     if s.out_of_steps > 0 {
         eprintln!(
             "warning: {} ray segment{} ran out of marching steps (max_steps {}); their paths were ended there",

@@ -59,8 +59,11 @@ impl Default for Options {
 }
 
 pub struct Rendered {
+    /// The frames, denoised with the scene's `denoise` filter.
     pub frames: Vec<Film>,
     pub stats: Stats,
+    /// Time spent denoising (part of `elapsed`).
+    pub denoise_time: Duration,
     pub elapsed: Duration,
 }
 
@@ -277,9 +280,14 @@ pub fn render(
             frames.push(film);
         }
     }
+    let denoise_start = Instant::now();
+    let filter = crate::denoise::Filter::from(r.denoise);
+    let options = crate::denoise::AtrousOptions::default();
+    pool.install(|| crate::denoise::denoise(&mut frames, filter, &options));
     Ok(Rendered {
         frames,
         stats,
+        denoise_time: denoise_start.elapsed(),
         elapsed: start.elapsed(),
     })
 }
