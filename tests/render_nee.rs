@@ -531,6 +531,7 @@ fn animated_light_is_followed_frame_by_frame() {
         let one = Rendered {
             frames: vec![r.frames[f].clone()],
             stats: r.stats,
+            denoise_time: r.denoise_time,
             elapsed: r.elapsed,
         };
         assert_mean(&format!("frame {f}"), &one, DVec3::splat(8.0 / d.powi(3)));
