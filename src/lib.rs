@@ -10,6 +10,7 @@ pub mod metrics;
 pub mod output;
 pub mod render;
 pub mod source;
+pub mod sweep;
 pub mod syntax;
 pub mod vm;
 

@@ -6,6 +6,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
+mod bench_command;
 mod render_command;
 
 #[derive(Parser)]
@@ -38,6 +39,9 @@ enum Command {
     },
     /// Render a scene to an animated GIF, PNG frames or EXR frames.
     Render(render_command::RenderArgs),
+    /// Measure speed against accuracy: a reference render, then a sweep of settings, each
+    /// timed and compared with it; writes a table, CSV and a plot.
+    Bench(bench_command::BenchArgs),
     /// Compile a scene and print one stage of it.
     Compile {
         file: PathBuf,
@@ -106,6 +110,7 @@ fn main() -> ExitCode {
             }
         }
         Command::Render(args) => render_command::run(args, color),
+        Command::Bench(args) => bench_command::run(args, color),
         Command::Compile { file, emit } => {
             let c = Compilation::from_path(&file);
             eprint!("{}", c.render_diagnostics(color));

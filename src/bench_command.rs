@@ -1,0 +1,211 @@
+//! `hyperslice bench`: measure speed against accuracy on one scene (see `sweep`), print the
+//! table, and write `results.csv`, `results.md` and `plot.png`.
+
+use clap::Args;
+use hyperslice::Compilation;
+use hyperslice::sweep::{self, Progress, SweepOptions, report};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// The scene to measure.
+    file: PathBuf,
+    /// Image size, as WIDTHxHEIGHT (e.g. 64x48). Default: the scene's (32x24 with --quick).
+    #[arg(long, value_parser = parse_size)]
+    size: Option<(u32, u32)>,
+    /// Number of frames. Default: the scene's (1 with --quick).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    frames: Option<u32>,
+    /// Least samples per pixel of the reference render; it takes at least 16 times the most
+    /// samples of any configuration measured.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000_000), conflicts_with = "reference")]
+    reference_spp: Option<u32>,
+    /// Compare with this linear OpenEXR instead of rendering a reference: one file, or numbered
+    /// frames `stem_0000.exr`, ... (as `render -o REF.exr` writes them), at the sweep's size and
+    /// frame count.
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Samples per pixel of the curves, comma-separated (default 1,2,4,8,16,32; 1,2,4 with
+    /// --quick).
+    #[arg(long, value_parser = parse_spp_list)]
+    spp_list: Option<SppList>,
+    /// Directory for results.csv, results.md and plot.png (created if missing). Default:
+    /// bench-<scene name>.
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Worker threads (0: every core). Default: the scene's setting.
+    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    threads: Option<u32>,
+    /// Shrink everything for a fast check: 32x24, one frame, 1,2,4 spp, a 64-spp reference,
+    /// only the draft preset.
+    #[arg(long)]
+    quick: bool,
+}
+
+#[derive(Clone)]
+struct SppList(Vec<u32>);
+
+fn parse_spp_list(s: &str) -> Result<SppList, String> {
+    let list = s
+        .split(',')
+        .map(|v| match v.trim().parse::<u32>() {
+            Ok(n) if (1..=1_000_000).contains(&n) => Ok(n),
+            _ => Err(format!(
+                "`{}` is not a sample count; write whole numbers in 1..=1000000 separated by commas, e.g. 1,2,4,8",
+                v.trim()
+            )),
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(SppList(list))
+}
+
+fn parse_size(s: &str) -> Result<(u32, u32), String> {
+    let side = |v: &str| match v.trim().parse::<u32>() {
+        Ok(n) if (1..=16384).contains(&n) => Ok(n),
+        _ => Err(format!(
+            "`{v}` is not a valid side; each side is a whole number in 1..=16384"
+        )),
+    };
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 160x120"))?;
+    Ok((side(w)?, side(h)?))
+}
+
+/// The command line as typed, for the report (the program by its name only).
+fn command_line() -> String {
+    std::env::args()
+        .enumerate()
+        .map(|(i, a)| {
+            let a = if i == 0 {
+                Path::new(&a)
+                    .file_stem()
+                    .map_or(a.clone(), |s| s.to_string_lossy().into_owned())
+            } else {
+                a
+            };
+            if a.is_empty() || a.contains(|c: char| c.is_whitespace() || c == '\'') {
+                format!("'{}'", a.replace('\'', r"'\''"))
+            } else {
+                a
+            }
+        })
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+pub fn run(args: BenchArgs, color: bool) -> ExitCode {
+    let c = Compilation::from_path(&args.file);
+    eprint!("{}", c.render_diagnostics(color));
+    let Some(scene) = c.scene else {
+        return ExitCode::FAILURE;
+    };
+    let stem = args
+        .file
+        .file_stem()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .into_owned();
+    let out = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("bench-{stem}")));
+    // Fail on an unwritable directory before spending any time rendering.
+    if let Err(e) = report::prepare_out_dir(&out) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
+    let mut opts = if args.quick {
+        SweepOptions::quick()
+    } else {
+        SweepOptions::default()
+    };
+    if args.size.is_some() {
+        opts.size = args.size;
+    }
+    if args.frames.is_some() {
+        opts.frames = args.frames;
+    }
+    if let Some(SppList(list)) = &args.spp_list {
+        opts.spp_list = list.clone();
+    }
+    if args.reference_spp.is_some() {
+        opts.reference_spp = args.reference_spp;
+    }
+    let threads = args.threads.unwrap_or(scene.render.threads);
+    opts.threads = (threads > 0).then_some(threads as usize);
+
+    let r = opts.settings(&scene.render);
+    let configs = sweep::plan(&r, &opts);
+    let reference = match &args.reference {
+        Some(path) => format!("reference from `{}`", path.display()),
+        None => format!(
+            "reference {} spp",
+            sweep::reference_spp(&configs, opts.reference_spp)
+        ),
+    };
+    eprintln!(
+        "bench {}: {} x {}, {} frame{}, {} configurations (middle {} spp), {reference}",
+        args.file.display(),
+        r.width,
+        r.height,
+        r.frames,
+        if r.frames == 1 { "" } else { "s" },
+        configs.len(),
+        sweep::middle_spp(&opts.spp_list),
+    );
+    let mut progress = |p: Progress| match p {
+        Progress::Reference { spp } => eprint!("[ref] reference, {spp} spp ... "),
+        Progress::ReferenceDone { reference } => match reference.time {
+            Some(t) => eprintln!("{} s", report::sig(t, 3)),
+            None => eprintln!("[ref] reference {}", reference.source),
+        },
+        Progress::Start {
+            index,
+            total,
+            config,
+        } => eprint!("[{index}/{total}] {}, {} spp ... ", config.label, config.spp),
+        Progress::Done { row, .. } => eprintln!(
+            "{} s (RMSE {})",
+            report::sig(row.time, 3),
+            report::sig(row.error.rmse, 3)
+        ),
+    };
+    let bench = match sweep::bench(&scene, &opts, args.reference.as_deref(), &mut progress) {
+        Ok(b) => b,
+        Err(e) => {
+            eprintln!();
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let ctx = report::Context {
+        scene: stem,
+        command: command_line(),
+        machine: report::machine(),
+    };
+    print!("{}", report::markdown(&bench, &ctx));
+    eprintln!("{}", report::reference_summary(&bench));
+    if let Some(w) = report::reference_warning(&bench) {
+        eprintln!("warning: {w}");
+    }
+    match report::write_results(&out, &bench, &ctx) {
+        Ok(w) => {
+            if let Some(note) = &w.plot_note {
+                eprintln!("note: {note}");
+            }
+            eprintln!(
+                "wrote {}, {} and {}",
+                w.csv.display(),
+                w.markdown.display(),
+                w.plot.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

@@ -1,0 +1,253 @@
+//! The sweep as a picture: RMSE against wall time, both on log scales; one colour and line per
+//! curve family, markers for the single-setting families, and the Pareto front as a dashed
+//! line. Text needs a font from the system; without one the plot is drawn without text.
+
+use super::report::{sig, write_atomic};
+use super::{Family, Row};
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+use plotters::style::{FontStyle, register_font};
+use std::path::Path;
+use std::sync::OnceLock;
+
+/// Plot size in pixels.
+pub const WIDTH: u32 = 1000;
+pub const HEIGHT: u32 = 700;
+
+/// The font family the plot's text uses (registered by [`font`]).
+const FONT: &str = "sans-serif";
+
+/// Where a sans-serif TrueType font is looked for, first found first.
+pub const FONT_PATHS: &[&str] = &[
+    "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/TTF/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu/DejaVuSans.ttf",
+    "/usr/share/fonts/dejavu-sans-fonts/DejaVuSans.ttf",
+    "/usr/share/fonts/truetype/liberation/LiberationSans-Regular.ttf",
+    "/usr/share/fonts/liberation-sans/LiberationSans-Regular.ttf",
+    "/usr/share/fonts/noto/NotoSans-Regular.ttf",
+    "/usr/share/fonts/truetype/noto/NotoSans-Regular.ttf",
+    "/System/Library/Fonts/Supplemental/Arial.ttf",
+    "/Library/Fonts/Arial.ttf",
+    r"C:\Windows\Fonts\arial.ttf",
+];
+
+/// Register the first font of [`FONT_PATHS`] that exists and parses (once per process).
+pub fn font() -> Result<(), String> {
+    static FOUND: OnceLock<Result<(), String>> = OnceLock::new();
+    FOUND
+        .get_or_init(|| {
+            for path in FONT_PATHS {
+                let Ok(bytes) = std::fs::read(path) else {
+                    continue;
+                };
+                // plotters keeps fonts for the life of the process.
+                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+                if register_font(FONT, FontStyle::Normal, bytes).is_ok() {
+                    return Ok(());
+                }
+            }
+            Err(format!(
+                "no usable font was found (looked for {})",
+                FONT_PATHS.join(", ")
+            ))
+        })
+        .clone()
+}
+
+/// How the plot came out.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlotOutcome {
+    /// Whether it has its title, axis labels and legend.
+    pub labels: bool,
+    /// Why it has none, when it has none.
+    pub note: Option<String>,
+}
+
+fn colour(family: Family) -> RGBColor {
+    match family {
+        Family::Baseline => RGBColor(31, 119, 180),
+        Family::NoLightSampling => RGBColor(214, 39, 40),
+        Family::Median => RGBColor(44, 160, 44),
+        Family::Atrous => RGBColor(255, 127, 14),
+        Family::Epsilon => RGBColor(148, 103, 189),
+        Family::MaxSteps => RGBColor(140, 86, 75),
+        Family::Bounces => RGBColor(227, 119, 194),
+        Family::Preset => RGBColor(23, 190, 207),
+    }
+}
+
+/// A log-scale axis range around `values` (positive, finite), padded a little.
+fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
+    let (lo, hi) = values
+        .filter(|v| v.is_finite() && *v > 0.0)
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if !lo.is_finite() {
+        return 0.1..10.0;
+    }
+    let (lo, hi) = if hi / lo < 1.5 {
+        (lo / 1.5, hi * 1.5)
+    } else {
+        (lo, hi)
+    };
+    let pad = (hi / lo).powf(0.06);
+    lo / pad..hi * pad
+}
+
+/// The plot as RGB8 pixels, `width * height * 3` bytes; `title` `None` draws no text at all
+/// (no title, tick labels, axis names or legend).
+pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Result<Vec<u8>, String> {
+    let err = |e: &dyn std::fmt::Display| format!("cannot draw the plot: {e}");
+    let mut buf = vec![255u8; width as usize * height as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(&e))?;
+        let valid = |r: &&Row| {
+            r.time.is_finite() && r.time > 0.0 && r.error.rmse.is_finite() && r.error.rmse > 0.0
+        };
+        let shown: Vec<&Row> = rows.iter().filter(valid).collect();
+        let xs = range(shown.iter().map(|r| r.time));
+        let ys = range(shown.iter().map(|r| r.error.rmse));
+        let mut builder = ChartBuilder::on(&root);
+        builder.margin(20);
+        if let Some(t) = title {
+            builder
+                .caption(t, (FONT, 24))
+                .x_label_area_size(55)
+                .y_label_area_size(85);
+        } else {
+            builder.x_label_area_size(5).y_label_area_size(5);
+        }
+        let mut chart = builder
+            .build_cartesian_2d(xs.log_scale(), ys.log_scale())
+            .map_err(|e| err(&e))?;
+        let label = |v: &f64| sig(*v, 2);
+        let mut mesh = chart.configure_mesh();
+        if title.is_some() {
+            mesh.x_desc("wall time (s)")
+                .y_desc("RMSE against the reference")
+                .label_style((FONT, 15))
+                .axis_desc_style((FONT, 17))
+                .x_label_formatter(&label)
+                .y_label_formatter(&label);
+        } else {
+            mesh.x_labels(0).y_labels(0);
+        }
+        mesh.draw().map_err(|e| err(&e))?;
+
+        for family in Family::ALL {
+            let mut members: Vec<&Row> = shown
+                .iter()
+                .copied()
+                .filter(|r| r.config.family == family)
+                .collect();
+            if members.is_empty() {
+                continue;
+            }
+            members.sort_by(|a, b| {
+                (a.config.spp, a.time)
+                    .partial_cmp(&(b.config.spp, b.time))
+                    .unwrap_or(std::cmp::Ordering::Equal)
+            });
+            let pts: Vec<(f64, f64)> = members.iter().map(|r| (r.time, r.error.rmse)).collect();
+            let c = colour(family);
+            let name = family.name();
+            if family.is_curve() {
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+                    .map_err(|e| err(&e))?
+                    .label(name)
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+                chart
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+                    .map_err(|e| err(&e))?;
+            } else {
+                let drawn = match family {
+                    Family::Epsilon => chart
+                        .draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 7, c.filled())))
+                        .map_err(|e| err(&e))?
+                        .label(name)
+                        .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, c.filled())),
+                    Family::MaxSteps => chart
+                        .draw_series(pts.iter().map(|&p| Cross::new(p, 6, c.stroke_width(2))))
+                        .map_err(|e| err(&e))?
+                        .label(name)
+                        .legend(move |(x, y)| Cross::new((x + 10, y), 6, c.stroke_width(2))),
+                    Family::Bounces => chart
+                        .draw_series(pts.iter().map(|&p| {
+                            EmptyElement::at(p) + Rectangle::new([(-5, -5), (5, 5)], c.filled())
+                        }))
+                        .map_err(|e| err(&e))?
+                        .label(name)
+                        .legend(move |(x, y)| {
+                            Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], c.filled())
+                        }),
+                    _ => chart
+                        .draw_series(pts.iter().map(|&p| Circle::new(p, 7, c.filled())))
+                        .map_err(|e| err(&e))?
+                        .label(name)
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 7, c.filled())),
+                };
+                let _ = drawn;
+            }
+        }
+
+        let mut front: Vec<(f64, f64)> = shown
+            .iter()
+            .filter(|r| r.pareto)
+            .map(|r| (r.time, r.error.rmse))
+            .collect();
+        front.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+        if !front.is_empty() {
+            chart
+                .draw_series(DashedLineSeries::new(front, 8, 5, BLACK.stroke_width(2)))
+                .map_err(|e| err(&e))?
+                .label("Pareto front")
+                .legend(|(x, y)| {
+                    DashedPathElement::new(vec![(x, y), (x + 20, y)], 6, 3, BLACK.stroke_width(2))
+                });
+        }
+
+        if title.is_some() {
+            chart
+                .configure_series_labels()
+                .position(SeriesLabelPosition::UpperRight)
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font((FONT, 15))
+                .draw()
+                .map_err(|e| err(&e))?;
+        }
+        root.present().map_err(|e| err(&e))?;
+    }
+    Ok(buf)
+}
+
+/// Encode RGB8 pixels as PNG.
+fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
+    use image::ImageEncoder;
+    let mut out = vec![];
+    image::codecs::png::PngEncoder::new(&mut out)
+        .write_image(pixels, width, height, image::ExtendedColorType::Rgb8)
+        .map_err(|e| format!("cannot encode the plot as PNG: {e}"))?;
+    Ok(out)
+}
+
+/// Draw the plot and write it to `path` as PNG (atomically). Without a font, or when drawing
+/// text fails, the plot is drawn without text and the outcome says why.
+pub fn write_png(rows: &[Row], path: &Path, title: &str) -> Result<PlotOutcome, String> {
+    let (pixels, note) = match font().and_then(|()| draw(rows, WIDTH, HEIGHT, Some(title))) {
+        Ok(p) => (p, None),
+        Err(why) => (
+            draw(rows, WIDTH, HEIGHT, None)?,
+            Some(format!(
+                "the plot has no title, axis labels or legend: {why}"
+            )),
+        ),
+    };
+    write_atomic(path, &encode_png(&pixels, WIDTH, HEIGHT)?)?;
+    Ok(PlotOutcome {
+        labels: note.is_none(),
+        note,
+    })
+}

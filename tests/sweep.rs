@@ -1,0 +1,278 @@
+//! The speed/accuracy sweep (`hyperslice bench`): the Pareto front, time-to-error
+//! interpolation, a quick sweep end to end through the library, and the command line.
+
+use hyperslice::Compilation;
+use hyperslice::check::Scene;
+use hyperslice::sweep::{
+    self, Family, Reach, SweepOptions, pareto_front, plot, report, time_to_error,
+};
+use std::path::Path;
+use std::process::{Command, Output};
+
+/// A lit ball under a sky: light sampling matters, and it renders in moments.
+const SCENE: &str = "render { size = 320 x 240  frames = 3  spp = 64 }
+sky = rgb(0.6, 0.7, 0.9)
+object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
+object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 5) }
+";
+
+fn scene() -> Scene {
+    let c = Compilation::from_source("bench.4ds", SCENE);
+    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+    c.scene.expect("a scene")
+}
+
+#[test]
+fn pareto_front_excludes_dominated_points_and_keeps_ties() {
+    let points = [
+        (1.0, 10.0),      // 0: fastest but one
+        (2.0, 5.0),       // 1
+        (3.0, 5.0),       // 2: slower than 1, no better
+        (2.0, 5.0),       // 3: ties 1 exactly: both stay
+        (4.0, 1.0),       // 4: most accurate
+        (5.0, 2.0),       // 5: beaten by 4 on both
+        (0.5, 20.0),      // 6: fastest
+        (1.0, 11.0),      // 7: as fast as 0, less accurate
+        (f64::NAN, 0.1),  // 8: unmeasured: never on the front, beats nothing
+        (0.75, f64::NAN), // 9
+    ];
+    let front = pareto_front(&points);
+    assert_eq!(
+        front,
+        [
+            true, true, false, true, true, false, true, false, false, false
+        ]
+    );
+    assert_eq!(pareto_front(&[]), Vec::<bool>::new());
+    assert_eq!(pareto_front(&[(1.0, 1.0)]), [true]);
+}
+
+#[test]
+fn time_to_error_is_exact_on_a_power_law() {
+    // time = 3 / error^2: Monte Carlo's error falls as one over the square root of time.
+    let curve: Vec<(f64, f64)> = [1.0, 0.5, 0.25, 0.125]
+        .iter()
+        .map(|&e: &f64| (3.0 / (e * e), e))
+        .collect();
+    for target in [0.9, 0.3, 0.2, 0.13, 0.125] {
+        let Reach::At(t) = time_to_error(&curve, target) else {
+            panic!("{target} is reached between points");
+        };
+        let exact = 3.0 / (target * target);
+        assert!((t / exact - 1.0).abs() < 1e-12, "{target}: {t} vs {exact}");
+    }
+    // A steeper law, and uneven spacing.
+    let curve: Vec<(f64, f64)> = [0.8, 0.3, 0.29, 0.01]
+        .iter()
+        .map(|&e: &f64| (0.5 * e.powf(-3.5), e))
+        .collect();
+    let t = time_to_error(&curve, 0.05).time().expect("reached");
+    assert!((t / (0.5 * 0.05_f64.powf(-3.5)) - 1.0).abs() < 1e-12, "{t}");
+}
+
+#[test]
+fn time_to_error_says_when_a_curve_never_gets_there() {
+    let curve = [(1.0, 0.4), (2.0, 0.3), (4.0, 0.2)];
+    assert_eq!(time_to_error(&curve, 0.1), Reach::NotReached);
+    assert_eq!(time_to_error(&curve, 0.1).time(), None);
+    assert_eq!(time_to_error(&[], 0.1), Reach::NotReached);
+    // Already there at the first point: no earlier time can be read off.
+    assert_eq!(time_to_error(&curve, 0.5), Reach::AtMost(1.0));
+    // A noisy curve: the first crossing counts.
+    let noisy = [(1.0, 0.4), (2.0, 0.2), (4.0, 0.3), (8.0, 0.1)];
+    let t = time_to_error(&noisy, 0.25).time().expect("reached");
+    assert!(t > 1.0 && t < 2.0, "{t}");
+    // Unusable points are skipped.
+    let holes = [(1.0, f64::NAN), (0.0, 0.5), (2.0, 0.4), (4.0, 0.1)];
+    let t = time_to_error(&holes, 0.2).time().expect("reached");
+    assert!(t > 2.0 && t < 4.0, "{t}");
+}
+
+#[test]
+fn plan_covers_every_family_and_the_reference_outsamples_it() {
+    let s = scene();
+    let opts = SweepOptions::default();
+    let configs = sweep::plan(&opts.settings(&s.render), &opts);
+    for f in Family::ALL {
+        assert!(configs.iter().any(|c| c.family == f), "{f:?}");
+    }
+    assert_eq!(sweep::middle_spp(&opts.spp_list), 8);
+    // The final preset's 256 spp are the most measured.
+    assert_eq!(sweep::reference_spp(&configs, None), 16 * 256);
+    assert_eq!(sweep::reference_spp(&configs, Some(10_000)), 10_000);
+    // Only the denoiser families denoise, and only the plain family turns light sampling off.
+    for c in &configs {
+        assert_eq!(
+            c.denoise != hyperslice::check::Denoise::None,
+            matches!(c.family, Family::Median | Family::Atrous),
+            "{}",
+            c.label
+        );
+        assert_eq!(
+            c.light_sampling,
+            c.family != Family::NoLightSampling,
+            "{}",
+            c.label
+        );
+    }
+}
+
+#[test]
+fn a_quick_sweep_end_to_end() {
+    let s = scene();
+    let mut events = 0;
+    let bench = sweep::bench(&s, &SweepOptions::quick(), None, &mut |_| events += 1)
+        .expect("the sweep runs");
+    let opts = SweepOptions::quick();
+    let planned = sweep::plan(&opts.settings(&s.render), &opts);
+    assert_eq!(bench.rows.len(), planned.len());
+    assert_eq!(events, 2 + 2 * planned.len());
+    assert_eq!((bench.settings.width, bench.settings.height), (32, 24));
+    for r in &bench.rows {
+        let e = &r.error;
+        assert!(
+            r.time.is_finite()
+                && r.time > 0.0
+                && e.rmse.is_finite()
+                && e.rmse > 0.0
+                && e.psnr.is_finite()
+                && e.ssim.is_finite()
+                && e.bias.is_finite(),
+            "{}: {r:?}",
+            r.config.label
+        );
+    }
+    assert!(bench.rows.iter().any(|r| r.pareto));
+    // Error falls as samples grow.
+    let baseline = sweep::curve(&bench.rows, Family::Baseline);
+    assert_eq!(baseline.len(), 3);
+    assert!(
+        baseline[2].1 < baseline[0].1,
+        "RMSE at 4 spp {} not below 1 spp's {}",
+        baseline[2].1,
+        baseline[0].1
+    );
+    // The reference reports its own error, and it is well below the errors measured.
+    assert_eq!(bench.reference.spp, Some(64));
+    let noise = bench.reference.noise.expect("the reference's own error");
+    assert!(noise.is_finite() && noise > 0.0);
+    let ratio = bench.reference_ratio().expect("a ratio");
+    assert!(ratio > 0.0 && ratio < 1.0, "{ratio}");
+    assert!(report::reference_summary(&bench).contains("its own error"));
+    let speedups = bench.speedups().expect("plain path tracing was measured");
+    assert_eq!(speedups.spp, 4);
+    assert_eq!(speedups.curves.len(), 3);
+
+    let csv = report::csv(&bench.rows);
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(lines[0], report::CSV_HEADER);
+    assert_eq!(lines.len(), bench.rows.len() + 1);
+    let columns = report::CSV_HEADER.split(',').count();
+    assert!(lines.iter().all(|l| l.split(',').count() == columns));
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("results");
+    report::prepare_out_dir(&out).expect("writable");
+    let ctx = report::Context {
+        scene: "bench".into(),
+        command: "test".into(),
+        machine: report::machine(),
+    };
+    let written = report::write_results(&out, &bench, &ctx).expect("written");
+    assert_eq!(std::fs::read_to_string(&written.csv).expect("csv"), csv);
+    let md = std::fs::read_to_string(&written.markdown).expect("md");
+    assert!(md.contains("| configuration | spp | time (s) |"), "{md}");
+    assert!(md.contains("| * |"), "{md}");
+    assert!(md.contains("Time to reach the RMSE of plain path tracing"), "{md}");
+    let png = image::open(&written.plot).expect("the plot decodes");
+    assert_eq!((png.width(), png.height()), (plot::WIDTH, plot::HEIGHT));
+    // Only the three results are left behind (no temporary files).
+    assert_eq!(std::fs::read_dir(&out).expect("listed").count(), 3);
+
+    // Without text (no font), the plot is still drawn.
+    let pixels = plot::draw(&bench.rows, 200, 150, None).expect("drawn");
+    assert_eq!(pixels.len(), 200 * 150 * 3);
+    assert!(pixels.iter().any(|&p| p != 255), "something is drawn");
+}
+
+#[test]
+fn a_reference_from_exr_must_match_the_sweep() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let s = scene();
+    let mut r = SweepOptions::quick().settings(&s.render);
+    r.exposure = 2.0;
+    let path = dir.path().join("ref.exr");
+    let image = hyperslice::output::HdrImage::from_fn(32, 24, |x, y| [x as f32, y as f32, 1.0]);
+    let settings = hyperslice::output::OutputSettings {
+        exposure: 2.0,
+        fps: 1.0,
+    };
+    hyperslice::output::write(&path, std::slice::from_ref(&image), &settings).expect("written");
+    let reference = sweep::load_reference(&path, &r).expect("loaded");
+    assert_eq!(reference.frames.len(), 1);
+    // The exposure `render` multiplied in is divided out again.
+    assert_eq!(reference.frames[0][3 + 2 * 32], glam::DVec3::new(3.0, 2.0, 1.0));
+    assert_eq!(reference.noise, None);
+    r.width = 16;
+    let e = sweep::load_reference(&path, &r).expect_err("wrong size");
+    assert!(e.contains("is 32x24 but the sweep renders 16x24"), "{e}");
+    r.width = 32;
+    r.frames = 2;
+    let e = sweep::load_reference(&path, &r).expect_err("one frame");
+    assert!(e.contains("one frame but the sweep renders 2"), "{e}");
+}
+
+fn hyperslice(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("ran hyperslice")
+}
+
+#[test]
+fn the_bench_command_writes_its_results() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    let o = hyperslice(
+        dir.path(),
+        &["bench", "scene.4ds", "--quick", "--out", "out", "--threads", "2"],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("[1/"), "{err}");
+    assert!(err.contains("reference, 64 spp"), "{err}");
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.contains("| baseline | 4 |"), "{table}");
+    for f in ["results.csv", "results.md", "plot.png"] {
+        assert!(dir.path().join("out").join(f).is_file(), "{f}: {err}");
+    }
+}
+
+#[test]
+fn the_bench_command_refuses_an_unwritable_out_before_rendering() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    std::fs::write(dir.path().join("taken"), "a file").expect("file written");
+    let o = hyperslice(
+        dir.path(),
+        &["bench", "scene.4ds", "--quick", "--out", "taken"],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success());
+    assert!(err.contains("`taken`: it is not a directory"), "{err}");
+    assert!(!err.contains("[ref]") && !err.contains("[1/"), "{err}");
+
+    let o = hyperslice(
+        dir.path(),
+        &["bench", "missing.4ds", "--quick", "--out", "out"],
+    );
+    assert_eq!(o.status.code(), Some(1));
+    assert!(!dir.path().join("out").exists());
+}
+
+#[test]
+fn zz_tmp_text_without_font() {
+    let r = plot::draw(&[], 200, 150, Some("title"));
+    eprintln!("RESULT: {:?}", r.map(|p| p.len()));
+}
