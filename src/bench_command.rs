@@ -165,7 +165,10 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
             index,
             total,
             config,
-        } => eprint!("[{index}/{total}] {}, {} spp ... ", config.label, config.spp),
+        } => eprint!(
+            "[{index}/{total}] {}, {} spp ... ",
+            config.label, config.spp
+        ),
         Progress::Done { row, .. } => eprintln!(
             "{} s (RMSE {})",
             report::sig(row.time, 3),

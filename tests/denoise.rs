@@ -775,7 +775,11 @@ fn animation(w: usize, h: usize, n: usize, rng: &mut Pcg64) -> Vec<Film> {
     (0..n)
         .map(|k| {
             let mut film = Film::new(w, h);
-            let (cx, cy, r) = (0.3 * w as f64 + 2.0 * k as f64, 0.6 * h as f64, 0.2 * h as f64);
+            let (cx, cy, r) = (
+                0.3 * w as f64 + 2.0 * k as f64,
+                0.6 * h as f64,
+                0.2 * h as f64,
+            );
             for y in 0..h {
                 for x in 0..w {
                     let p = y * w + x;
@@ -825,7 +829,11 @@ fn animation(w: usize, h: usize, n: usize, rng: &mut Pcg64) -> Vec<Film> {
 fn timing_animation() {
     let mut rng = Pcg64::seed_from_u64(11);
     let frames = animation(256, 192, 21, &mut rng);
-    for round in 0..2 {
+    for round in 0..std::env::var("DN_ROUNDS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(2)
+    {
         let t = std::time::Instant::now();
         let new = hyperslice::denoise::atrous::filtered(&frames, &AtrousOptions::default());
         let t_new = t.elapsed();
@@ -835,9 +843,80 @@ fn timing_animation() {
         let mut worst = 0.0f64;
         for (a, b) in new.iter().zip(&old) {
             for (a, b) in a.as_ref().unwrap().iter().zip(b.as_ref().unwrap()) {
-                worst = worst.max(((*a - *b).abs() / b.abs().max(DVec3::splat(1e-3))).max_element());
+                worst =
+                    worst.max(((*a - *b).abs() / b.abs().max(DVec3::splat(1e-3))).max_element());
             }
         }
-        println!("round {round}: 256x192x21 a-trous: new {t_new:?}, old {t_old:?}, worst relative difference {worst:e}");
+        println!(
+            "round {round}: 256x192x21 a-trous: new {t_new:?}, old {t_old:?}, worst relative difference {worst:e}"
+        );
     }
+}
+
+#[test]
+fn tmp_matches_old() {
+    let mut rng = Pcg64::seed_from_u64(12);
+    let mut frames = animation(61, 47, 4, &mut rng);
+    frames[1].color[100] = DVec3::splat(f64::NAN);
+    frames[1].color[300] = DVec3::new(f64::INFINITY, 0.0, 1.0);
+    frames[2].normal[500] = DVec4::splat(f64::NAN);
+    frames[2].position[700] = DVec4::splat(f64::INFINITY);
+    frames[0].albedo[800] = DVec3::splat(f64::NAN);
+    frames[3].std_error[900] = DVec3::splat(f64::NAN);
+    let mut one = animation(61, 47, 2, &mut rng);
+    for f in &mut one {
+        f.std_error.iter_mut().for_each(|s| *s = DVec3::ZERO);
+    }
+    let mut odd = vec![Film::new(5, 3), Film::new(5, 3), Film::new(4, 4)];
+    odd[2].normal.clear();
+    for f in &mut odd {
+        for c in &mut f.color {
+            *c = DVec3::splat(rng.random::<f64>());
+        }
+    }
+    let mut worst = 0.0f64;
+    for set in [&frames, &one, &odd] {
+        for conserve in [true, false] {
+            for temporal in [Temporal::AllPasses, Temporal::FirstPass, Temporal::Off] {
+                for opts in [
+                    AtrousOptions::default(),
+                    no_guides(),
+                    AtrousOptions {
+                        sigma_color: 0.0,
+                        sigma_normal: f64::NAN,
+                        sigma_position: -1.0,
+                        passes: 7,
+                        ..AtrousOptions::default()
+                    },
+                ] {
+                    let opts = AtrousOptions {
+                        conserve,
+                        temporal,
+                        ..opts
+                    };
+                    let new = hyperslice::denoise::atrous::filtered(set, &opts);
+                    let old = hyperslice::denoise::atrous_old::filtered(set, &opts);
+                    assert_eq!(new.len(), old.len());
+                    for (a, b) in new.iter().zip(&old) {
+                        assert_eq!(a.is_some(), b.is_some());
+                        let (Some(a), Some(b)) = (a, b) else { continue };
+                        for (a, b) in a.iter().zip(b) {
+                            for (a, b) in a.to_array().iter().zip(b.to_array()) {
+                                if a.is_nan() || b.is_nan() {
+                                    assert!(a.is_nan() && b.is_nan());
+                                    continue;
+                                }
+                                if a == &b {
+                                    continue;
+                                }
+                                worst = worst.max((a - b).abs() / b.abs().max(1e-3));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+    println!("worst relative difference {worst:e}");
+    assert!(worst < 1e-12);
 }

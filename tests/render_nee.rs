@@ -11,131 +11,21 @@
 //!
 //! Every seed is fixed, so a run that passes passes every time.
 
+mod common;
+
+use common::*;
 use glam::{DVec3, DVec4};
 use hyperslice::Compilation;
-use hyperslice::render::driver::{self, Options, Rendered};
+use hyperslice::render::driver::{Options, Rendered};
 use hyperslice::render::frame::Prepared;
 use hyperslice::render::lights::{
     ball_pdf, cap_area, cap_integral, cone_half_angle, sample_ball, sample_cone_theta,
 };
 use hyperslice::render::sampling::uniform_s3;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
 use std::f64::consts::PI;
-use std::time::Duration;
 
-// ---------------------------------------------------------------------------------------------
-// Numerics (the same as tests/physics_samplers.rs).
-
-/// Composite 5-point Gauss-Legendre quadrature on `[a, b]` with `panels` panels.
-fn gauss(a: f64, b: f64, panels: usize, mut f: impl FnMut(f64) -> f64) -> f64 {
-    const X: [f64; 5] = [
-        -0.906_179_845_938_664,
-        -0.538_469_310_105_683_1,
-        0.0,
-        0.538_469_310_105_683_1,
-        0.906_179_845_938_664,
-    ];
-    const W: [f64; 5] = [
-        0.236_926_885_056_189_1,
-        0.478_628_670_499_366_5,
-        0.568_888_888_888_888_9,
-        0.478_628_670_499_366_5,
-        0.236_926_885_056_189_1,
-    ];
-    let h = (b - a) / panels as f64;
-    let mut sum = 0.0;
-    for k in 0..panels {
-        let mid = a + (k as f64 + 0.5) * h;
-        sum += X
-            .iter()
-            .zip(W)
-            .map(|(x, w)| w * f(mid + 0.5 * h * x))
-            .sum::<f64>();
-    }
-    0.5 * h * sum
-}
-
-/// `ln Gamma(x)` for `x > 0` (Lanczos, g = 7).
-fn ln_gamma(x: f64) -> f64 {
-    const G: f64 = 7.0;
-    const C: [f64; 9] = [
-        0.999_999_999_999_809_9,
-        676.520_368_121_885_1,
-        -1_259.139_216_722_402_8,
-        771.323_428_777_653_1,
-        -176.615_029_162_140_6,
-        12.507_343_278_686_905,
-        -0.138_571_095_265_720_12,
-        9.984_369_578_019_572e-6,
-        1.505_632_735_149_311_6e-7,
-    ];
-    if x < 0.5 {
-        return (PI / (PI * x).sin()).ln() - ln_gamma(1.0 - x);
-    }
-    let x = x - 1.0;
-    let mut a = C[0];
-    for (k, c) in C.iter().enumerate().skip(1) {
-        a += c / (x + k as f64);
-    }
-    let t = x + G + 0.5;
-    0.5 * (2.0 * PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
-}
-
-/// Upper regularised incomplete gamma `Q(a, x)` (series below `a + 1`, else Lentz).
-fn gamma_q(a: f64, x: f64) -> f64 {
-    if x <= 0.0 {
-        return 1.0;
-    }
-    let log_prefactor = a * x.ln() - x - ln_gamma(a);
-    if x < a + 1.0 {
-        let (mut term, mut sum, mut ap) = (1.0 / a, 1.0 / a, a);
-        for _ in 0..100_000 {
-            ap += 1.0;
-            term *= x / ap;
-            sum += term;
-            if term.abs() < sum.abs() * 1e-16 {
-                break;
-            }
-        }
-        1.0 - sum * log_prefactor.exp()
-    } else {
-        let tiny = 1e-300;
-        let mut b = x + 1.0 - a;
-        let mut c = 1.0 / tiny;
-        let mut d = 1.0 / b;
-        let mut h = d;
-        for i in 1..100_000 {
-            let an = -(i as f64) * (i as f64 - a);
-            b += 2.0;
-            d = an * d + b;
-            if d.abs() < tiny {
-                d = tiny;
-            }
-            c = b + an / c;
-            if c.abs() < tiny {
-                c = tiny;
-            }
-            d = 1.0 / d;
-            let delta = d * c;
-            h *= delta;
-            if (delta - 1.0).abs() < 1e-16 {
-                break;
-            }
-        }
-        h * log_prefactor.exp()
-    }
-}
-
-fn chi2_sf(stat: f64, dof: usize) -> f64 {
-    gamma_q(0.5 * dof as f64, 0.5 * stat)
-}
-
-fn uniforms(rng: &mut Pcg64Mcg) -> DVec3 {
-    DVec3::new(rng.random(), rng.random(), rng.random())
-}
-
-/// Pearson's statistic after pooling cells with expected count < 5; `(statistic, dof)`.
 fn pooled_chi2(observed: &[f64], expected: &[f64]) -> (f64, usize) {
     let mut cells: Vec<(f64, f64)> = vec![];
     for (k, (&e, &o)) in expected.iter().zip(observed).enumerate() {
@@ -388,53 +278,10 @@ fn spherical_lights_are_recognised_and_placed_per_frame() {
 // ---------------------------------------------------------------------------------------------
 // Renders.
 
-/// Time any one render may take (release build, a loaded 2-core machine).
-const TIME_BOUND: Duration = Duration::from_secs(30);
-
-fn render_with(src: &str, options: Options) -> Rendered {
-    let scene = scene_of(src);
-    let r = driver::render(&scene, &options, &|_| {}).expect("rendered");
-    assert!(r.elapsed < TIME_BOUND, "took {:?}", r.elapsed);
-    for film in &r.frames {
-        for c in &film.color {
-            assert!(c.is_finite() && c.min_element() >= 0.0, "pixel {c}");
-        }
-    }
-    assert_eq!(r.stats.dropped, 0);
-    r
-}
-
 fn with_nee(light_sampling: bool) -> Options {
     Options {
         light_sampling,
         ..Options::default()
-    }
-}
-
-/// Mean over all pixels of every frame, and its standard error (pixels are independent).
-fn mean_and_error(r: &Rendered) -> (DVec3, DVec3) {
-    let films = &r.frames;
-    let n: usize = films.iter().map(|f| f.color.len()).sum();
-    let mean = films.iter().flat_map(|f| &f.color).sum::<DVec3>() / n as f64;
-    let var = films
-        .iter()
-        .flat_map(|f| &f.std_error)
-        .map(|e| *e * *e)
-        .sum::<DVec3>();
-    (mean, var.map(f64::sqrt) / n as f64)
-}
-
-fn assert_mean(what: &str, r: &Rendered, want: DVec3) {
-    let (mean, se) = mean_and_error(r);
-    eprintln!("{what}: {mean} +- {se} (want {want})");
-    for c in 0..3 {
-        let tol = 4.0 * se[c] + 1e-9 * want[c].abs().max(1.0);
-        assert!(
-            (mean[c] - want[c]).abs() <= tol,
-            "{what}: channel {c} mean {} expected {} (4 sigma = {tol})",
-            mean[c],
-            want[c]
-        );
     }
 }
 

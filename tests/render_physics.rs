@@ -5,62 +5,17 @@
 //! errors (a false alarm about once in 16,000 runs; every seed is fixed, so a run that passes
 //! passes every time). Deterministic ones use a relative tolerance of 1e-5.
 
+mod common;
+
+use common::*;
 use glam::DVec3;
-use hyperslice::Compilation;
 use hyperslice::render::driver::{self, Options, Rendered};
 use std::time::Duration;
-
-/// Time any one of these renders may take (release build, a loaded 2-core machine).
-const TIME_BOUND: Duration = Duration::from_secs(20);
-
-fn render_with(src: &str, options: Options) -> Rendered {
-    let c = Compilation::from_source("test.4ds", src);
-    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
-    let scene = c.scene.expect("a scene");
-    let r = driver::render(&scene, &options, &|_| {}).expect("rendered");
-    assert!(r.elapsed < TIME_BOUND, "took {:?}", r.elapsed);
-    for film in &r.frames {
-        for c in &film.color {
-            assert!(c.is_finite() && c.min_element() >= 0.0, "pixel {c}");
-        }
-    }
-    r
-}
-
-fn render(src: &str) -> Rendered {
-    render_with(src, Options::default())
-}
 
 fn no_roulette() -> Options {
     Options {
         roulette_from: u32::MAX,
         ..Options::default()
-    }
-}
-
-/// Mean over all pixels of every frame, and its standard error (pixels are independent).
-fn mean_and_error(r: &Rendered) -> (DVec3, DVec3) {
-    let films = &r.frames;
-    let n: usize = films.iter().map(|f| f.color.len()).sum();
-    let mean = films.iter().flat_map(|f| &f.color).sum::<DVec3>() / n as f64;
-    let var = films
-        .iter()
-        .flat_map(|f| &f.std_error)
-        .map(|e| *e * *e)
-        .sum::<DVec3>();
-    (mean, var.map(f64::sqrt) / n as f64)
-}
-
-fn assert_mean(what: &str, r: &Rendered, want: DVec3) {
-    let (mean, se) = mean_and_error(r);
-    for c in 0..3 {
-        let tol = 4.0 * se[c] + 1e-9 * want[c].abs().max(1.0);
-        assert!(
-            (mean[c] - want[c]).abs() <= tol,
-            "{what}: channel {c} mean {} expected {} (4 sigma = {tol})",
-            mean[c],
-            want[c]
-        );
     }
 }
 

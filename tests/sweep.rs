@@ -183,7 +183,10 @@ fn a_quick_sweep_end_to_end() {
     let md = std::fs::read_to_string(&written.markdown).expect("md");
     assert!(md.contains("| configuration | spp | time (s) |"), "{md}");
     assert!(md.contains("| * |"), "{md}");
-    assert!(md.contains("Time to reach the RMSE of plain path tracing"), "{md}");
+    assert!(
+        md.contains("Time to reach the RMSE of plain path tracing"),
+        "{md}"
+    );
     let png = image::open(&written.plot).expect("the plot decodes");
     assert_eq!((png.width(), png.height()), (plot::WIDTH, plot::HEIGHT));
     // Only the three results are left behind (no temporary files).
@@ -211,7 +214,10 @@ fn a_reference_from_exr_must_match_the_sweep() {
     let reference = sweep::load_reference(&path, &r).expect("loaded");
     assert_eq!(reference.frames.len(), 1);
     // The exposure `render` multiplied in is divided out again.
-    assert_eq!(reference.frames[0][3 + 2 * 32], glam::DVec3::new(3.0, 2.0, 1.0));
+    assert_eq!(
+        reference.frames[0][3 + 2 * 32],
+        glam::DVec3::new(3.0, 2.0, 1.0)
+    );
     assert_eq!(reference.noise, None);
     r.width = 16;
     let e = sweep::load_reference(&path, &r).expect_err("wrong size");
@@ -236,7 +242,15 @@ fn the_bench_command_writes_its_results() {
     std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
     let o = hyperslice(
         dir.path(),
-        &["bench", "scene.4ds", "--quick", "--out", "out", "--threads", "2"],
+        &[
+            "bench",
+            "scene.4ds",
+            "--quick",
+            "--out",
+            "out",
+            "--threads",
+            "2",
+        ],
     );
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
@@ -271,8 +285,112 @@ fn the_bench_command_refuses_an_unwritable_out_before_rendering() {
     assert!(!dir.path().join("out").exists());
 }
 
+/// Made-up rows over the default plan: error falling as one over the square root of time,
+/// each family a little worse than the one before.
+fn synthetic_rows() -> Vec<sweep::Row> {
+    let opts = SweepOptions::default();
+    let mut rows: Vec<sweep::Row> = sweep::plan(&opts.settings(&scene().render), &opts)
+        .into_iter()
+        .enumerate()
+        .map(|(i, config)| {
+            let time = 0.01 * config.spp as f64 * (1.0 + 0.1 * (i % 3) as f64);
+            sweep::Row {
+                error: hyperslice::metrics::ImageError {
+                    rmse: (1.0 + 0.2 * config.family as u8 as f64) * 0.1 / time.sqrt(),
+                    psnr: 30.0,
+                    ssim: 0.9,
+                    bias: 0.0,
+                },
+                time,
+                config,
+                out_of_steps: 0,
+                dropped: 0,
+                pareto: false,
+            }
+        })
+        .collect();
+    sweep::mark_pareto(&mut rows);
+    rows
+}
+
+/// Runs in a process of its own (started by `the_plot_needs_no_font_without_text`), where no
+/// font has been registered.
 #[test]
-fn zz_tmp_text_without_font() {
-    let r = plot::draw(&[], 200, 150, Some("title"));
-    eprintln!("RESULT: {:?}", r.map(|p| p.len()));
+#[ignore = "run by the_plot_needs_no_font_without_text in a fresh process"]
+fn plot_in_a_process_without_fonts() {
+    if std::env::var_os("HYPERSLICE_TEST_NO_FONT").is_none() {
+        return;
+    }
+    let rows = synthetic_rows();
+    let e = plot::draw(&rows, 300, 200, Some("title")).expect_err("no font is registered");
+    assert!(e.contains("Font"), "{e}");
+    let pixels = plot::draw(&rows, 300, 200, None).expect("drawn without text");
+    assert!(pixels.iter().any(|&p| p != 255), "something is drawn");
+}
+
+#[test]
+fn the_plot_needs_no_font_without_text() {
+    let o = Command::new(std::env::current_exe().expect("this test binary"))
+        .args([
+            "--ignored",
+            "--exact",
+            "plot_in_a_process_without_fonts",
+            "--test-threads",
+            "1",
+        ])
+        .env("HYPERSLICE_TEST_NO_FONT", "1")
+        .output()
+        .expect("ran");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        o.status.success() && out.contains("1 passed"),
+        "{out}{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+#[test]
+fn the_plot_marks_the_front_and_writes_a_png() {
+    let rows = synthetic_rows();
+    assert!(rows.iter().any(|r| r.pareto) && rows.iter().any(|r| !r.pareto));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("plot.png");
+    let outcome = plot::write_png(&rows, &path, "synthetic").expect("written");
+    assert_eq!(outcome.labels, outcome.note.is_none());
+    let png = image::open(&path).expect("decodes").to_rgb8();
+    // Every family's colour and the black front appear somewhere.
+    let has = |rgb: [u8; 3]| png.pixels().any(|p| p.0 == rgb);
+    assert!(has([31, 119, 180]), "baseline");
+    assert!(has([255, 127, 14]), "atrous");
+    assert!(has([0, 0, 0]), "black");
+}
+
+#[test]
+fn zz_tmp_replot() {
+    let csv = std::fs::read_to_string("/tmp/hb/tess/results.csv").unwrap();
+    let opts = SweepOptions::default();
+    let plan = sweep::plan(&opts.settings(&scene().render), &opts);
+    let mut rows = vec![];
+    for (line, config) in csv.lines().skip(1).zip(plan) {
+        let f: Vec<&str> = line.split(',').collect();
+        rows.push(sweep::Row {
+            config,
+            time: f[8].parse().unwrap(),
+            error: hyperslice::metrics::ImageError {
+                rmse: f[9].parse().unwrap(),
+                psnr: 0.0,
+                ssim: 0.0,
+                bias: 0.0,
+            },
+            out_of_steps: 0,
+            dropped: 0,
+            pareto: f[13] == "true",
+        });
+    }
+    plot::write_png(
+        &rows,
+        Path::new("/tmp/hb/replot.png"),
+        "tesseract: error against time",
+    )
+    .unwrap();
 }

@@ -495,4 +495,3 @@ fn offset(base: usize, d: isize, step: usize, len: usize) -> Option<usize> {
     let q = base as isize + d * step as isize;
     (q >= 0 && (q as usize) < len).then_some(q as usize)
 }
-

@@ -17,7 +17,7 @@
 //! S^2 orthogonal to the axis. Every direction of the cone meets the ball, and only those do, so
 //! the pdf of a direction that hit the ball (found by BSDF sampling) is the same constant.
 
-use super::sampling::{Frame, uniform_s2};
+use super::sampling::{Frame, safeguarded_newton, uniform_s2};
 use glam::{DVec3, DVec4};
 use std::f64::consts::PI;
 
@@ -93,29 +93,13 @@ pub fn ball_pdf(d: f64, r: f64) -> f64 {
 /// becomes a bisection step).
 pub fn sample_cone_theta(a: f64, u: f64) -> f64 {
     let y = u.clamp(0.0, 1.0) * cap_integral(a);
-    let (mut lo, mut hi) = (0.0, a);
-    let mut theta = (1.5 * y).cbrt().clamp(0.0, a);
-    for _ in 0..100 {
-        let f = cap_integral(theta) - y;
-        if f > 0.0 {
-            hi = theta;
-        } else {
-            lo = theta;
-        }
-        let s = theta.sin();
-        let newton = theta - f / (2.0 * s * s);
-        let next = if newton > lo && newton < hi {
-            newton
-        } else {
-            0.5 * (lo + hi)
-        };
-        let step = (next - theta).abs();
-        theta = next;
-        if step <= 1e-15 * a || hi - lo <= 1e-15 * a {
-            break;
-        }
-    }
-    theta
+    safeguarded_newton(
+        |theta| cap_integral(theta) - y,
+        |theta| 2.0 * theta.sin().powi(2),
+        (1.5 * y).cbrt().clamp(0.0, a),
+        (0.0, a),
+        1e-15 * a,
+    )
 }
 
 /// A direction uniform in the solid angle of the ball (`center`, `radius`) seen from `x`, and

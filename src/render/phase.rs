@@ -8,7 +8,7 @@
 //!
 //! Sampling is exact, so a sample's weight is 1 and its pdf equals `eval`.
 
-use super::sampling::{Frame, SPHERE3_AREA, uniform_s2, uniform_s3};
+use super::sampling::{Frame, SPHERE3_AREA, safeguarded_newton, uniform_s2, uniform_s3};
 use glam::{DVec3, DVec4};
 use std::f64::consts::PI;
 
@@ -121,28 +121,13 @@ impl HenyeyGreenstein {
         let g = self.g;
         let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * xi);
         let mu = ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0);
-        let (mut lo, mut hi) = (0.0, PI);
-        let mut theta = mu.acos();
-        for _ in 0..100 {
-            let f = self.theta_cdf(theta) - xi;
-            if f > 0.0 {
-                hi = theta;
-            } else {
-                lo = theta;
-            }
-            let newton = theta - f / self.theta_pdf(theta);
-            let next = if newton > lo && newton < hi {
-                newton
-            } else {
-                0.5 * (lo + hi)
-            };
-            let step = (next - theta).abs();
-            theta = next;
-            if step < 1e-13 || hi - lo < 1e-13 {
-                break;
-            }
-        }
-        theta
+        safeguarded_newton(
+            |theta| self.theta_cdf(theta) - xi,
+            |theta| self.theta_pdf(theta),
+            mu.acos(),
+            (0.0, PI),
+            1e-13,
+        )
     }
 }
 

@@ -381,7 +381,12 @@ pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference, Stri
     for file in &files {
         let image = exr::prelude::read_first_rgba_layer_from_file(
             file,
-            |size, _| (size.width(), vec![DVec3::ZERO; size.width() * size.height()]),
+            |size, _| {
+                (
+                    size.width(),
+                    vec![DVec3::ZERO; size.width() * size.height()],
+                )
+            },
             |(w, px): &mut (usize, Vec<DVec3>), pos, (r, g, b, _a): (f32, f32, f32, f32)| {
                 px[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
             },
@@ -621,9 +626,9 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<bool> {
         .iter()
         .map(|p| {
             valid(p)
-                && !points.iter().any(|q| {
-                    valid(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1)
-                })
+                && !points
+                    .iter()
+                    .any(|q| valid(q) && q.0 <= p.0 && q.1 <= p.1 && (q.0 < p.0 || q.1 < p.1))
         })
         .collect()
 }

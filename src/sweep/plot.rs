@@ -77,21 +77,22 @@ fn colour(family: Family) -> RGBColor {
     }
 }
 
-/// A log-scale axis range around `values` (positive, finite), padded a little.
+/// A log-scale axis range around `values` (positive, finite), out to whole decades (plotters
+/// labels a log axis only from its first power of ten on).
 fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     let (lo, hi) = values
         .filter(|v| v.is_finite() && *v > 0.0)
-        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+        .fold((f64::INFINITY, 0.0_f64), |(lo, hi), v| {
+            (lo.min(v), hi.max(v))
+        });
     if !lo.is_finite() {
         return 0.1..10.0;
     }
-    let (lo, hi) = if hi / lo < 1.5 {
-        (lo / 1.5, hi * 1.5)
-    } else {
-        (lo, hi)
-    };
-    let pad = (hi / lo).powf(0.06);
-    lo / pad..hi * pad
+    // A little room around the outermost points, then out to powers of ten.
+    let (lo, hi) = (lo / 1.05, hi * 1.05);
+    let lo = 10f64.powf(lo.log10().floor());
+    let hi = 10f64.powf(hi.log10().ceil());
+    lo..hi
 }
 
 /// The plot as RGB8 pixels, `width * height * 3` bytes; `title` `None` draws no text at all
@@ -119,21 +120,44 @@ pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Resul
             builder.x_label_area_size(5).y_label_area_size(5);
         }
         let mut chart = builder
-            .build_cartesian_2d(xs.log_scale(), ys.log_scale())
+            .build_cartesian_2d(xs.clone().log_scale(), ys.clone().log_scale())
             .map_err(|e| err(&e))?;
-        let label = |v: &f64| sig(*v, 2);
+        // Tick labels at 1, 2 and 5 times powers of ten only (the other ticks stay unlabelled).
+        let label = |v: &f64| {
+            let lead = *v / 10f64.powf(v.log10().floor());
+            if [1.0, 2.0, 5.0, 10.0]
+                .iter()
+                .any(|m| (lead - m).abs() < 1e-6)
+            {
+                sig(*v, 1)
+            } else {
+                String::new()
+            }
+        };
         let mut mesh = chart.configure_mesh();
         if title.is_some() {
             mesh.x_desc("wall time (s)")
                 .y_desc("RMSE against the reference")
                 .label_style((FONT, 15))
                 .axis_desc_style((FONT, 17))
+                .x_labels(40)
+                .y_labels(40)
                 .x_label_formatter(&label)
                 .y_label_formatter(&label);
         } else {
-            mesh.x_labels(0).y_labels(0);
+            mesh.disable_axes();
         }
         mesh.draw().map_err(|e| err(&e))?;
+        if title.is_none() {
+            // The axes, without their tick labels.
+            let frame = [(xs.start, ys.start), (xs.end, ys.end)];
+            chart
+                .draw_series(std::iter::once(Rectangle::new(
+                    frame,
+                    BLACK.stroke_width(1),
+                )))
+                .map_err(|e| err(&e))?;
+        }
 
         for family in Family::ALL {
             let mut members: Vec<&Row> = shown
@@ -157,7 +181,9 @@ pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Resul
                     .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
                     .map_err(|e| err(&e))?
                     .label(name)
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2)));
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                    });
                 chart
                     .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
                     .map_err(|e| err(&e))?;
