@@ -85,37 +85,10 @@ fn mean_ssim(a: &[f64], b: &[f64], width: usize, height: usize) -> f64 {
     let kernel: Vec<f64> = (-5..=5_i32)
         .map(|i| (-(i * i) as f64 / (2.0 * 1.5 * 1.5)).exp())
         .collect();
-    // Separable Gaussian blur of an image, renormalised at the borders.
+    // Separable Gaussian blur, renormalised at the borders: rows, then columns.
     let blur = |img: &[f64]| -> Vec<f64> {
-        let mut tmp = vec![0.0; img.len()];
-        for y in 0..height {
-            for x in 0..width {
-                let (mut s, mut w) = (0.0, 0.0);
-                for (k, kw) in kernel.iter().enumerate() {
-                    let xx = x as i64 + k as i64 - 5;
-                    if (0..width as i64).contains(&xx) {
-                        s += kw * img[y * width + xx as usize];
-                        w += kw;
-                    }
-                }
-                tmp[y * width + x] = s / w;
-            }
-        }
-        let mut out = vec![0.0; img.len()];
-        for y in 0..height {
-            for x in 0..width {
-                let (mut s, mut w) = (0.0, 0.0);
-                for (k, kw) in kernel.iter().enumerate() {
-                    let yy = y as i64 + k as i64 - 5;
-                    if (0..height as i64).contains(&yy) {
-                        s += kw * tmp[yy as usize * width + x];
-                        w += kw;
-                    }
-                }
-                out[y * width + x] = s / w;
-            }
-        }
-        out
+        let rows = blur_1d(img, &kernel, width, height, (1, width));
+        blur_1d(&rows, &kernel, height, width, (width, 1))
     };
     let product = |p: &[f64], q: &[f64]| p.iter().zip(q).map(|(x, y)| x * y).collect::<Vec<_>>();
     let (ma, mb) = (blur(a), blur(b));
@@ -132,6 +105,33 @@ fn mean_ssim(a: &[f64], b: &[f64], width: usize, height: usize) -> f64 {
             / ((ma[i] * ma[i] + mb[i] * mb[i] + C1) * (va + vb + C2));
     }
     total / a.len().max(1) as f64
+}
+
+/// Convolve every line of an image with `kernel` (centred, renormalised where it leaves the
+/// image). A line has `len` pixels `step.0` apart; `lines` lines start `step.1` apart.
+fn blur_1d(
+    img: &[f64],
+    kernel: &[f64],
+    len: usize,
+    lines: usize,
+    step: (usize, usize),
+) -> Vec<f64> {
+    let half = kernel.len() as i64 / 2;
+    let mut out = vec![0.0; img.len()];
+    for line in 0..lines {
+        for i in 0..len {
+            let (mut s, mut w) = (0.0, 0.0);
+            for (k, kw) in kernel.iter().enumerate() {
+                let j = i as i64 + k as i64 - half;
+                if (0..len as i64).contains(&j) {
+                    s += kw * img[line * step.1 + j as usize * step.0];
+                    w += kw;
+                }
+            }
+            out[line * step.1 + i * step.0] = s / w;
+        }
+    }
+    out
 }
 
 #[cfg(test)]
