@@ -23,7 +23,7 @@ pub struct BenchArgs {
     reference_spp: Option<u32>,
     /// Compare with this linear OpenEXR instead of rendering a reference: one file, or numbered
     /// frames `stem_0000.exr`, ... (as `render -o REF.exr` writes them), at the sweep's size and
-    /// frame count.
+    /// frame count; render it with `--denoise none` and a seed other than the scene's.
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Samples per pixel of the curves, comma-separated (default 1,2,4,8,16,32; 1,2,4 with
@@ -155,30 +155,38 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         configs.len(),
         sweep::middle_spp(&opts.spp_list),
     );
-    let mut progress = |p: Progress| match p {
-        Progress::Reference { spp } => eprint!("[ref] reference, {spp} spp ... "),
-        Progress::ReferenceDone { reference } => match reference.time {
-            Some(t) => eprintln!("{} s", report::sig(t, 3)),
-            None => eprintln!("[ref] reference {}", reference.source),
-        },
-        Progress::Start {
-            index,
-            total,
-            config,
-        } => eprint!(
-            "[{index}/{total}] {}, {} spp ... ",
-            config.label, config.spp
-        ),
-        Progress::Done { row, .. } => eprintln!(
-            "{} s (RMSE {})",
-            report::sig(row.time, 3),
-            report::sig(row.error.rmse, 3)
-        ),
+    // Whether a progress line is waiting for its time.
+    let mut open = false;
+    let mut progress = |p: Progress| {
+        match p {
+            Progress::Reference { spp } => eprint!("[ref] reference, {spp} spp ... "),
+            Progress::ReferenceDone { reference } => match reference.time {
+                Some(t) => eprintln!("{} s", report::sig(t, 3)),
+                None => eprintln!("[ref] reference {}", reference.source),
+            },
+            Progress::Start {
+                index,
+                total,
+                config,
+            } => eprint!(
+                "[{index}/{total}] {}, {} spp ... ",
+                config.label, config.spp
+            ),
+            Progress::Done { row, .. } => eprintln!(
+                "{} s (RMSE {})",
+                report::sig(row.time, 3),
+                report::sig(row.error.rmse, 3)
+            ),
+        }
+        open = matches!(p, Progress::Reference { .. } | Progress::Start { .. });
     };
-    let bench = match sweep::bench(&scene, &opts, args.reference.as_deref(), &mut progress) {
+    let result = sweep::bench(&scene, &opts, args.reference.as_deref(), &mut progress);
+    let bench = match result {
         Ok(b) => b,
         Err(e) => {
-            eprintln!();
+            if open {
+                eprintln!();
+            }
             eprintln!("error: {e}");
             return ExitCode::FAILURE;
         }

@@ -364,33 +364,3 @@ fn the_plot_marks_the_front_and_writes_a_png() {
     assert!(has([255, 127, 14]), "atrous");
     assert!(has([0, 0, 0]), "black");
 }
-
-#[test]
-fn zz_tmp_replot() {
-    let csv = std::fs::read_to_string("/tmp/hb/tess/results.csv").unwrap();
-    let opts = SweepOptions::default();
-    let plan = sweep::plan(&opts.settings(&scene().render), &opts);
-    let mut rows = vec![];
-    for (line, config) in csv.lines().skip(1).zip(plan) {
-        let f: Vec<&str> = line.split(',').collect();
-        rows.push(sweep::Row {
-            config,
-            time: f[8].parse().unwrap(),
-            error: hyperslice::metrics::ImageError {
-                rmse: f[9].parse().unwrap(),
-                psnr: 0.0,
-                ssim: 0.0,
-                bias: 0.0,
-            },
-            out_of_steps: 0,
-            dropped: 0,
-            pareto: f[13] == "true",
-        });
-    }
-    plot::write_png(
-        &rows,
-        Path::new("/tmp/hb/replot.png"),
-        "tesseract: error against time",
-    )
-    .unwrap();
-}

@@ -359,7 +359,9 @@ pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference, Stri
             .map(|i| crate::output::numbered_path(path, i))
             .collect();
         if let Some(missing) = numbered.iter().find(|p| !p.is_file()) {
-            return Err(if path.is_file() {
+            return Err(if frames == 1 && !numbered[0].is_file() {
+                format!("reference `{}` does not exist", path.display())
+            } else if path.is_file() {
                 format!(
                     "reference `{}` is one frame but the sweep renders {frames} (give --frames 1, or numbered frames like `{}`)",
                     path.display(),

@@ -88,10 +88,9 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     if !lo.is_finite() {
         return 0.1..10.0;
     }
-    // A little room around the outermost points, then out to powers of ten.
-    let (lo, hi) = (lo / 1.05, hi * 1.05);
-    let lo = 10f64.powf(lo.log10().floor());
-    let hi = 10f64.powf(hi.log10().ceil());
+    // Just past the powers of ten, or rounding makes plotters skip the first one.
+    let lo = 10f64.powf(lo.log10().floor()) * 0.999;
+    let hi = 10f64.powf(hi.log10().ceil()) * 1.001;
     lo..hi
 }
 
@@ -142,6 +141,8 @@ pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Resul
                 .axis_desc_style((FONT, 17))
                 .x_labels(40)
                 .y_labels(40)
+                .max_light_lines(0)
+                .bold_line_style(BLACK.mix(0.15))
                 .x_label_formatter(&label)
                 .y_label_formatter(&label);
         } else {
@@ -188,7 +189,8 @@ pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Resul
                     .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
                     .map_err(|e| err(&e))?;
             } else {
-                let drawn = match family {
+                // Each family its own marker, in the plot and in the legend.
+                match family {
                     Family::Epsilon => chart
                         .draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 7, c.filled())))
                         .map_err(|e| err(&e))?
@@ -214,7 +216,6 @@ pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Resul
                         .label(name)
                         .legend(move |(x, y)| Circle::new((x + 10, y), 7, c.filled())),
                 };
-                let _ = drawn;
             }
         }
 
