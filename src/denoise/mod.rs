@@ -13,8 +13,6 @@
 //! filter to use.
 
 pub mod atrous;
-#[doc(hidden)]
-pub mod atrous_old;
 pub mod median;
 
 use crate::check::Denoise;
