@@ -3,7 +3,8 @@
 
 use clap::Args;
 use hyperslice::Compilation;
-use hyperslice::sweep::{self, Progress, SweepOptions, report};
+use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
+use hyperslice::sweep::{self, Family, Progress, SweepOptions, report};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -17,7 +18,7 @@ pub struct BenchArgs {
     /// Number of frames. Default: the scene's (1 with --quick).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
     frames: Option<u32>,
-    /// Least samples per pixel of the reference render; it takes at least 16 times the most
+    /// Least samples per pixel of the reference render; it takes at least 100 times the most
     /// samples of any configuration measured.
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000_000), conflicts_with = "reference")]
     reference_spp: Option<u32>,
@@ -37,7 +38,19 @@ pub struct BenchArgs {
     /// Worker threads (0: every core). Default: the scene's setting.
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
     threads: Option<u32>,
-    /// Shrink everything for a fast check: 32x24, one frame, 1,2,4 spp, a 64-spp reference,
+    /// Renders of each configuration; the time reported is their median. Default 5 (1 with
+    /// --quick).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
+    repeats: Option<u32>,
+    /// Measure only these families, comma-separated: baseline, no-light-sampling, random,
+    /// median, atrous, epsilon, max-steps, bounces, preset. Default: all.
+    #[arg(long, value_parser = parse_families)]
+    families: Option<Families>,
+    /// Measure cost curves instead of the speed/accuracy sweep: render time against pixels,
+    /// samples per pixel, frames, threads and number of objects (costs.csv, costs.md).
+    #[arg(long, conflicts_with_all = ["reference", "reference_spp", "spp_list", "families"])]
+    costs: bool,
+    /// Shrink everything for a fast check: 32x24, one frame, 1,2,4 spp (a 400-spp reference),
     /// only the draft preset.
     #[arg(long)]
     quick: bool,
@@ -45,6 +58,29 @@ pub struct BenchArgs {
 
 #[derive(Clone)]
 struct SppList(Vec<u32>);
+
+#[derive(Clone)]
+struct Families(Vec<Family>);
+
+fn parse_families(s: &str) -> Result<Families, String> {
+    let list = s
+        .split(',')
+        .map(|v| {
+            let v = v.trim();
+            Family::ALL
+                .into_iter()
+                .find(|f| f.name().replace(' ', "-") == v)
+                .ok_or_else(|| {
+                    let names: Vec<String> = Family::ALL
+                        .iter()
+                        .map(|f| f.name().replace(' ', "-"))
+                        .collect();
+                    format!("`{v}` is not a family; choose from {}", names.join(", "))
+                })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    Ok(Families(list))
+}
 
 fn parse_spp_list(s: &str) -> Result<SppList, String> {
     let list = s
@@ -116,6 +152,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
+    if args.costs {
+        return run_costs(&args, &scene, &out);
+    }
     let mut opts = if args.quick {
         SweepOptions::quick()
     } else {
@@ -129,6 +168,12 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
     }
     if let Some(SppList(list)) = &args.spp_list {
         opts.spp_list = list.clone();
+    }
+    if let Some(n) = args.repeats {
+        opts.repeats = n;
+    }
+    if let Some(Families(list)) = &args.families {
+        opts.families = list.clone();
     }
     if args.reference_spp.is_some() {
         opts.reference_spp = args.reference_spp;
@@ -211,6 +256,75 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
                 w.csv.display(),
                 w.markdown.display(),
                 w.plot.display()
+            );
+            ExitCode::SUCCESS
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// `--costs`: the cost curves, printed and written as costs.csv and costs.md.
+fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> ExitCode {
+    let mut opts = if args.quick {
+        CostOptions::quick()
+    } else {
+        CostOptions::default()
+    };
+    if let Some(size) = args.size {
+        opts.size = size;
+    }
+    if let Some(f) = args.frames {
+        opts.frames = f;
+    }
+    if let Some(n) = args.repeats {
+        opts.repeats = n;
+    }
+    let threads = args.threads.unwrap_or(scene.render.threads);
+    opts.threads = (threads > 0).then_some(threads as usize);
+    eprintln!(
+        "cost curves of {}: base {} x {}, {} spp, {} frame(s), median of {} render(s) per point",
+        args.file.display(),
+        opts.size.0,
+        opts.size.1,
+        opts.spp,
+        opts.frames,
+        opts.repeats
+    );
+    let mut progress = |p: CostProgress| match p {
+        CostProgress::Start { knob, x } => eprint!("{} {x} ... ", knob.name()),
+        CostProgress::Done { point } => eprintln!("{} s", report::sig(point.time, 3)),
+    };
+    let points = match costs::cost_curves(scene, &opts, &mut progress) {
+        Ok(p) => p,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let md = format!(
+        "# Cost curves: {}\n\n- command: `{}`\n- machine: {}\n- base: {} x {}, {} spp, {} frame(s), no denoiser; each point the median of {} render(s)\n{}",
+        args.file.display(),
+        command_line(),
+        report::machine(),
+        opts.size.0,
+        opts.size.1,
+        opts.spp,
+        opts.frames,
+        opts.repeats,
+        costs::markdown(&points)
+    );
+    print!("{md}");
+    let written = report::write_atomic(&out.join("costs.csv"), costs::csv(&points).as_bytes())
+        .and_then(|()| report::write_atomic(&out.join("costs.md"), md.as_bytes()));
+    match written {
+        Ok(()) => {
+            eprintln!(
+                "wrote {} and {}",
+                out.join("costs.csv").display(),
+                out.join("costs.md").display()
             );
             ExitCode::SUCCESS
         }

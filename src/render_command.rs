@@ -6,6 +6,7 @@ use hyperslice::Compilation;
 use hyperslice::check::{Denoise, Quality, RenderSettings};
 use hyperslice::output::{self, OutputSettings};
 use hyperslice::render::driver::{self, Options};
+use hyperslice::render::sampler::SamplerKind;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -66,6 +67,10 @@ pub struct RenderArgs {
     /// Next-event estimation towards spherical lights (with multiple importance sampling).
     #[arg(long, default_value = "on")]
     light_sampling: Switch,
+    /// Where the random numbers come from: independent PCG streams, or an Owen-scrambled
+    /// Sobol sequence per pixel.
+    #[arg(long, value_enum, default_value_t)]
+    sampler: SamplerKind,
 }
 
 #[derive(Clone, Copy, clap::ValueEnum)]
@@ -220,6 +225,7 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
     let options = Options {
         threads: (r.threads > 0).then_some(r.threads as usize),
         light_sampling: args.light_sampling == Switch::On,
+        sampler: args.sampler,
         time_budget: args.time_budget,
         noise_threshold: args.noise_threshold,
         ..Options::default()

@@ -10,6 +10,7 @@ mod common;
 use common::*;
 use glam::DVec3;
 use hyperslice::render::driver::{self, Options, Rendered};
+use hyperslice::render::sampler::SamplerKind;
 use std::time::Duration;
 
 fn no_roulette() -> Options {
@@ -262,7 +263,14 @@ fn error_falls_as_one_over_root_n() {
     for &spp in &spps {
         let mut sq = 0.0;
         for seed in 0..8 {
-            let r = render(&slab(material, spp, seed));
+            // Independent samples: the Sobol sampler converges faster (tests/render_sampler.rs).
+            let r = render_with(
+                &slab(material, spp, seed),
+                Options {
+                    sampler: SamplerKind::Random,
+                    ..Options::default()
+                },
+            );
             for film in &r.frames {
                 for c in &film.color {
                     sq += (c.x - want).powi(2);

@@ -3,6 +3,8 @@
 
 use hyperslice::Compilation;
 use hyperslice::check::Scene;
+use hyperslice::render::sampler::SamplerKind;
+use hyperslice::sweep::costs::{self, CostOptions, CostPoint, Knob};
 use hyperslice::sweep::{
     self, Family, Reach, SweepOptions, pareto_front, plot, report, time_to_error,
 };
@@ -98,8 +100,8 @@ fn plan_covers_every_family_and_the_reference_outsamples_it() {
     }
     assert_eq!(sweep::middle_spp(&opts.spp_list), 8);
     // The final preset's 256 spp are the most measured.
-    assert_eq!(sweep::reference_spp(&configs, None), 16 * 256);
-    assert_eq!(sweep::reference_spp(&configs, Some(10_000)), 10_000);
+    assert_eq!(sweep::reference_spp(&configs, None), 100 * 256);
+    assert_eq!(sweep::reference_spp(&configs, Some(100_000)), 100_000);
     // Only the denoiser families denoise, and only the plain family turns light sampling off.
     for c in &configs {
         assert_eq!(
@@ -114,6 +116,107 @@ fn plan_covers_every_family_and_the_reference_outsamples_it() {
             "{}",
             c.label
         );
+        // Only the random family leaves the default (Sobol) sampler.
+        assert_eq!(
+            c.sampler == SamplerKind::Random,
+            c.family == Family::Random,
+            "{}",
+            c.label
+        );
+    }
+    // A family filter keeps only those families.
+    let only = SweepOptions {
+        families: vec![Family::Baseline, Family::Random],
+        ..SweepOptions::default()
+    };
+    let kept = sweep::plan(&only.settings(&s.render), &only);
+    assert_eq!(kept.len(), 2 * only.spp_list.len());
+    assert!(kept.iter().all(|c| only.families.contains(&c.family)));
+}
+
+#[test]
+fn median_of_odd_even_and_empty() {
+    assert_eq!(sweep::median(&mut [3.0, 1.0, 2.0]), 2.0);
+    assert_eq!(sweep::median(&mut [4.0, 1.0, 3.0, 2.0]), 2.5);
+    assert!(sweep::median(&mut []).is_nan());
+}
+
+#[test]
+fn cost_exponent_is_exact_on_a_power_law() {
+    let points: Vec<CostPoint> = [1u64, 2, 4, 8]
+        .iter()
+        .map(|&x| CostPoint {
+            knob: Knob::Spp,
+            x,
+            time: 0.3 * (x as f64).powf(0.8),
+            samples: x,
+            evaluations_per_sample: 100.0,
+        })
+        .collect();
+    let refs: Vec<&CostPoint> = points.iter().collect();
+    let k = costs::exponent(&refs).expect("an exponent");
+    assert!((k - 0.8).abs() < 1e-12, "{k}");
+    assert_eq!(costs::exponent(&refs[..1]), None);
+}
+
+#[test]
+fn the_generated_object_scenes_compile_with_n_objects() {
+    for n in [1u32, 2, 5, 16, 17, 64, 81] {
+        let c = Compilation::from_source("objects.4ds", &costs::objects_scene(n));
+        assert!(!c.has_errors(), "{n}: {}", c.render_diagnostics(false));
+        assert_eq!(
+            c.scene.expect("a scene").objects.len(),
+            n as usize + 2,
+            "{n}"
+        );
+    }
+}
+
+#[test]
+fn quick_cost_curves_cover_every_knob_and_count_samples() {
+    let s = scene();
+    let mut events = 0;
+    let points = costs::cost_curves(&s, &CostOptions::quick(), &mut |_| events += 1)
+        .expect("the curves run");
+    assert_eq!(events, 2 * points.len());
+    for knob in Knob::ALL {
+        assert!(points.iter().any(|p| p.knob == knob), "{knob:?}");
+    }
+    for p in &points {
+        assert!(p.time > 0.0 && p.evaluations_per_sample > 0.0, "{p:?}");
+    }
+    // Samples grow exactly with spp, frames and pixels.
+    let samples = |knob, x| {
+        points
+            .iter()
+            .find(|p| p.knob == knob && p.x == x)
+            .map(|p| p.samples)
+            .expect("measured")
+    };
+    assert_eq!(samples(Knob::Spp, 2), 2 * samples(Knob::Spp, 1));
+    assert_eq!(samples(Knob::Frames, 2), 2 * samples(Knob::Frames, 1));
+    assert_eq!(
+        samples(Knob::Pixels, 4 * 3 * 4),
+        4 * samples(Knob::Pixels, 4 * 3)
+    );
+    let md = costs::markdown(&points);
+    assert!(md.contains("fitted exponent"), "{md}");
+    assert_eq!(costs::csv(&points).lines().count(), points.len() + 1);
+}
+
+#[test]
+fn the_bench_command_writes_cost_curves() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    let o = hyperslice(
+        dir.path(),
+        &["bench", "scene.4ds", "--costs", "--quick", "--out", "out"],
+    );
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{err}");
+    assert!(String::from_utf8_lossy(&o.stdout).contains("**objects**"));
+    for f in ["costs.csv", "costs.md"] {
+        assert!(dir.path().join("out").join(f).is_file(), "{f}: {err}");
     }
 }
 
@@ -153,7 +256,7 @@ fn a_quick_sweep_end_to_end() {
         baseline[0].1
     );
     // The reference reports its own error, and it is well below the errors measured.
-    assert_eq!(bench.reference.spp, Some(64));
+    assert_eq!(bench.reference.spp, Some(400));
     let noise = bench.reference.noise.expect("the reference's own error");
     assert!(noise.is_finite() && noise > 0.0);
     let ratio = bench.reference_ratio().expect("a ratio");
@@ -161,7 +264,7 @@ fn a_quick_sweep_end_to_end() {
     assert!(report::reference_summary(&bench).contains("its own error"));
     let speedups = bench.speedups().expect("plain path tracing was measured");
     assert_eq!(speedups.spp, 4);
-    assert_eq!(speedups.curves.len(), 3);
+    assert_eq!(speedups.curves.len(), 4);
 
     let csv = report::csv(&bench.rows);
     let lines: Vec<&str> = csv.lines().collect();
@@ -255,7 +358,7 @@ fn the_bench_command_writes_its_results() {
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("[1/"), "{err}");
-    assert!(err.contains("reference, 64 spp"), "{err}");
+    assert!(err.contains("reference, 400 spp"), "{err}");
     let table = String::from_utf8_lossy(&o.stdout);
     assert!(table.contains("| baseline | 4 |"), "{table}");
     for f in ["results.csv", "results.md", "plot.png"] {

@@ -10,6 +10,7 @@ use super::film::{Film, PixelSums};
 use super::frame::{FrameScene, Prepared};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
+use super::sampler::SamplerKind;
 use crate::check::Scene;
 use glam::DVec4;
 use rayon::prelude::*;
@@ -37,6 +38,8 @@ pub struct Options {
     /// Next-event estimation towards spherical lights, combined with BSDF sampling by multiple
     /// importance sampling (on by default). Off, the estimator is pure BSDF sampling.
     pub light_sampling: bool,
+    /// Where the random numbers come from.
+    pub sampler: SamplerKind,
     /// Progressive rendering: stop taking samples once this much time is spent (after at
     /// least one sample per pixel), up to the scene's `spp`.
     pub time_budget: Option<Duration>,
@@ -52,6 +55,7 @@ impl Default for Options {
             roulette_from: 3,
             general: false,
             light_sampling: true,
+            sampler: SamplerKind::default(),
             time_budget: None,
             noise_threshold: None,
         }
@@ -159,6 +163,7 @@ pub fn render(
         roulette_from: options.roulette_from,
         far: 1e3 * (1.0 + reach),
         light_sampling: options.light_sampling,
+        sampler: options.sampler,
     };
     let tiles: Vec<Tile> = (0..r.height.div_ceil(TILE))
         .flat_map(|ty| {

@@ -30,12 +30,11 @@ use super::lights::Lights;
 use super::march::{Hit, Limits, Marcher, Ray, epsilon_at};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
+use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::ir::Var;
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
-use rand::{Rng, SeedableRng};
-use rand_pcg::Pcg32;
 
 /// The settings of the light transport.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -52,6 +51,8 @@ pub struct Settings {
     pub far: f64,
     /// Next-event estimation towards spherical lights, combined with BSDF sampling by MIS.
     pub light_sampling: bool,
+    /// Where the random numbers come from.
+    pub sampler: SamplerKind,
 }
 
 /// Counts for the summary.
@@ -134,7 +135,7 @@ impl Stack {
 struct Path {
     /// Index of the pixel within the tile.
     pixel: u32,
-    rng: Pcg32,
+    sampler: Sampler,
     beta: DVec3,
     /// Product of `(eta_light_side / eta_camera_side)^3` over transmissions: `beta * eta_scale`
     /// is the throughput without radiance scaling, which is what Russian roulette should see.
@@ -160,7 +161,7 @@ struct Path {
 
 impl Path {
     fn u3(&mut self) -> DVec3 {
-        DVec3::new(self.rng.random(), self.rng.random(), self.rng.random())
+        self.sampler.get3()
     }
 }
 
@@ -204,20 +205,6 @@ pub struct Scratch {
     regs: Option<Regs<f32, LANES>>,
 }
 
-/// A 64-bit mix (SplitMix64's finaliser), to give every path its own random stream.
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58476d1ce4e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d049bb133111eb);
-    z ^ (z >> 31)
-}
-
-/// The random stream of one sample: a function of the seed, frame, pixel and sample index
-/// only, so the image does not depend on how tiles are spread over threads.
-fn stream(seed: u64, frame: u32, pixel: u64, sample: u32) -> Pcg32 {
-    let key = mix(mix(mix(seed ^ 0x9e3779b97f4a7c15) ^ frame as u64) ^ pixel) ^ sample as u64;
-    Pcg32::seed_from_u64(mix(key))
-}
-
 /// Take samples `samples` of every pixel of `tile` in frame `frame` whose entry in `active`
 /// (row-major within the tile) is true, adding them to `sums`.
 #[allow(clippy::too_many_arguments)]
@@ -244,12 +231,12 @@ pub fn render_tile(
             let (px, py) = (tile.x + k % tile.width, tile.y + k / tile.width);
             let global = py as u64 * s.width as u64 + px as u64;
             for sample in first..last {
-                let mut rng = stream(s.seed, frame, global, sample);
-                let (jx, jy): (f64, f64) = (rng.random(), rng.random());
+                let mut sampler = Sampler::new(s.sampler, s.seed, frame, global, sample);
+                let (jx, jy) = (sampler.get(), sampler.get());
                 let d = (fs.camera).direction(px as f64 + jx, py as f64 + jy, s.width, s.height);
                 scratch.paths.push(Path {
                     pixel: k,
-                    rng,
+                    sampler,
                     beta: DVec3::ONE,
                     eta_scale: 1.0,
                     radiance: DVec3::ZERO,
@@ -334,8 +321,9 @@ fn trace(
             let m = path.stack.medium(fs.medium);
             let mut tmax = s.far;
             path.flight = false;
+            path.sampler.start_segment(path.bounces);
             if !m.is_vacuum() {
-                let u: f64 = path.rng.random();
+                let u = path.sampler.get();
                 let d = -(1.0 - u).ln() / m.sigma_t;
                 if d < tmax {
                     (tmax, path.flight) = (d, true);
@@ -494,7 +482,7 @@ fn survive(path: &mut Path, s: &Settings) -> bool {
     path.bounces += 1;
     let q = (path.beta * path.eta_scale).max_element();
     if path.bounces >= s.roulette_from && q < 1.0 {
-        if q <= 0.0 || path.rng.random::<f64>() >= q {
+        if q <= 0.0 || path.sampler.get() >= q {
             return false;
         }
         path.beta /= q;
@@ -532,7 +520,7 @@ impl Nee<'_> {
         let Some(lights) = self.lights else {
             return false;
         };
-        let select: f64 = path.rng.random();
+        let select = path.sampler.get();
         let u = path.u3();
         path.mis_from = x;
         let Some(ls) = lights.sample(x, select, u) else {

@@ -16,4 +16,5 @@ pub mod lights;
 pub mod march;
 pub mod material;
 pub mod phase;
+pub mod sampler;
 pub mod sampling;

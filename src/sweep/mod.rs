@@ -3,34 +3,38 @@
 //! compared with the reference (RMSE, PSNR, SSIM, mean luminance bias).
 //!
 //! The families swept: samples per pixel with light sampling on and no denoiser (the baseline
-//! curve); the same without light sampling; the median and a-trous denoisers on top of the
-//! baseline; marching epsilon, marching step limit and bounce depth at a middle sample count;
+//! curve, with the default Sobol sampler); the same without light sampling; the same with
+//! independent random numbers; the median and a-trous denoisers on top of the baseline; marching epsilon, marching step limit and bounce depth at a middle sample count;
 //! the quality presets. Every configuration renders with the scene's seed and the reference
 //! with a different one (`seed + REFERENCE_SEED_OFFSET`), so the reference's noise is
 //! independent of every configuration's. Only the denoiser families denoise, whatever the
-//! scene's `denoise` says.
+//! scene's `denoise` says. Renders are deterministic, so repeating one changes only its time:
+//! each configuration is rendered `repeats` times and its time is the median.
 //!
 //! [`pareto_front`] marks the configurations no other beats on both time and error, and
 //! [`time_to_error`] reads off a curve how long it takes to reach an error. The results become
 //! CSV, Markdown ([`report`]) and a PNG plot ([`plot`]).
 
+pub mod costs;
 pub mod plot;
 pub mod report;
 
 use crate::check::{Denoise, Quality, RenderSettings, Scene};
 use crate::metrics::{self, ImageError};
 use crate::render::driver::{self, Options};
+use crate::render::sampler::SamplerKind;
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 
-/// The reference takes at least this many times the samples of any configuration.
-pub const REFERENCE_FACTOR: u32 = 16;
+/// The reference takes at least this many times the samples of any configuration: its own
+/// error is then about a tenth of theirs (`REFERENCE_NOISE_RATIO`).
+pub const REFERENCE_FACTOR: u32 = 100;
 /// The reference renders with the scene's seed plus this, every configuration with the seed.
 pub const REFERENCE_SEED_OFFSET: u64 = 1000;
 /// The reference's own error should be below this fraction of the smallest error measured.
 pub const REFERENCE_NOISE_RATIO: f64 = 0.1;
 
-/// A group of configurations that differ in one setting; the first four are curves over
+/// A group of configurations that differ in one setting; the first five are curves over
 /// samples per pixel.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
 pub enum Family {
@@ -38,6 +42,8 @@ pub enum Family {
     Baseline,
     /// Light sampling off: plain path tracing (BSDF sampling only).
     NoLightSampling,
+    /// The baseline with independent random numbers instead of the Sobol sampler.
+    Random,
     /// The baseline, median-filtered.
     Median,
     /// The baseline, a-trous-filtered.
@@ -53,9 +59,10 @@ pub enum Family {
 }
 
 impl Family {
-    pub const ALL: [Family; 8] = [
+    pub const ALL: [Family; 9] = [
         Family::Baseline,
         Family::NoLightSampling,
+        Family::Random,
         Family::Median,
         Family::Atrous,
         Family::Epsilon,
@@ -69,6 +76,7 @@ impl Family {
         match self {
             Family::Baseline => "baseline",
             Family::NoLightSampling => "no light sampling",
+            Family::Random => "random",
             Family::Median => "median",
             Family::Atrous => "atrous",
             Family::Epsilon => "epsilon",
@@ -82,7 +90,11 @@ impl Family {
     pub fn is_curve(self) -> bool {
         matches!(
             self,
-            Family::Baseline | Family::NoLightSampling | Family::Median | Family::Atrous
+            Family::Baseline
+                | Family::NoLightSampling
+                | Family::Random
+                | Family::Median
+                | Family::Atrous
         )
     }
 }
@@ -98,6 +110,7 @@ pub struct Config {
     pub epsilon: f64,
     pub max_steps: u32,
     pub light_sampling: bool,
+    pub sampler: SamplerKind,
     pub denoise: Denoise,
 }
 
@@ -113,6 +126,7 @@ impl Config {
             epsilon: r.epsilon,
             max_steps: r.max_steps,
             light_sampling: true,
+            sampler: SamplerKind::default(),
             denoise: Denoise::None,
         }
     }
@@ -130,7 +144,7 @@ impl Config {
 /// What a sweep measures.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SweepOptions {
-    /// Samples per pixel of the four curves.
+    /// Samples per pixel of the five curves.
     pub spp_list: Vec<u32>,
     /// Marching epsilons tried at the middle sample count.
     pub epsilons: Vec<f64>,
@@ -149,6 +163,10 @@ pub struct SweepOptions {
     pub frames: Option<u32>,
     /// Worker threads; `None` uses every core.
     pub threads: Option<usize>,
+    /// Renders of each configuration; its time is their median.
+    pub repeats: u32,
+    /// The families measured; empty measures all.
+    pub families: Vec<Family>,
 }
 
 impl Default for SweepOptions {
@@ -164,18 +182,21 @@ impl Default for SweepOptions {
             size: None,
             frames: None,
             threads: None,
+            repeats: 5,
+            families: vec![],
         }
     }
 }
 
 impl SweepOptions {
-    /// Everything shrunk, for tests: 32 x 24, one frame, 1, 2 and 4 spp, a 64-spp reference,
-    /// and only the draft preset (the others take more samples than the reference allows for).
+    /// Everything shrunk, for tests: 32 x 24, one frame, 1, 2 and 4 spp (so a 400-spp reference),
+    /// only the draft preset (the others take more samples than the reference allows for), and
+    /// one render per configuration.
     pub fn quick() -> Self {
         SweepOptions {
+            repeats: 1,
             spp_list: vec![1, 2, 4],
             presets: vec![Quality::Draft],
-            reference_spp: Some(64),
             size: Some((32, 24)),
             frames: Some(1),
             ..SweepOptions::default()
@@ -227,6 +248,12 @@ pub fn plan(base: &RenderSettings, opts: &SweepOptions) -> Vec<Config> {
             ..Config::base(Family::NoLightSampling, "no light sampling", base, spp)
         });
     }
+    for &spp in &spps {
+        out.push(Config {
+            sampler: SamplerKind::Random,
+            ..Config::base(Family::Random, "random sampler", base, spp)
+        });
+    }
     for (family, denoise, label) in [
         (Family::Median, Denoise::Median, "median denoiser"),
         (Family::Atrous, Denoise::Atrous, "atrous denoiser"),
@@ -276,6 +303,7 @@ pub fn plan(base: &RenderSettings, opts: &SweepOptions) -> Vec<Config> {
             ..Config::base(Family::Preset, format!("preset {name}"), base, r.spp)
         });
     }
+    out.retain(|c| opts.families.is_empty() || opts.families.contains(&c.family));
     out
 }
 
@@ -309,7 +337,9 @@ pub struct Reference {
 }
 
 /// Render the reference for `scene` (its settings, as overridden by the caller): `spp` samples
-/// per pixel, light sampling on, no denoiser, seed `seed + REFERENCE_SEED_OFFSET`.
+/// per pixel, light sampling on, no denoiser, seed `seed + REFERENCE_SEED_OFFSET`, and
+/// independent random numbers, so that its pixels' standard errors (which assume independent
+/// samples) measure its own error honestly.
 pub fn render_reference(
     scene: &Scene,
     spp: u32,
@@ -324,6 +354,7 @@ pub fn render_reference(
     let options = Options {
         threads,
         light_sampling: true,
+        sampler: SamplerKind::Random,
         ..Options::default()
     };
     let rendered = driver::render(&scene, &options, &|_| {})?;
@@ -448,13 +479,15 @@ pub struct Row {
     pub pareto: bool,
 }
 
-/// Render `config` over `scene` (whose size and frames must be the reference's) and compare
-/// it with `reference`; the row's `pareto` is left false.
+/// Render `config` over `scene` (whose size and frames must be the reference's) `repeats`
+/// times (at least once) and compare it with `reference`; the row's time is the median and its
+/// `pareto` is left false.
 pub fn measure(
     scene: &Scene,
     config: &Config,
     reference: &Reference,
     threads: Option<usize>,
+    repeats: u32,
 ) -> Result<Row, String> {
     let mut scene = scene.clone();
     config.apply(&mut scene.render);
@@ -476,9 +509,18 @@ pub fn measure(
     let options = Options {
         threads,
         light_sampling: config.light_sampling,
+        sampler: config.sampler,
         ..Options::default()
     };
     let rendered = driver::render(&scene, &options, &|_| {})?;
+    let mut times = vec![rendered.elapsed.as_secs_f64()];
+    for _ in 1..repeats {
+        times.push(
+            driver::render(&scene, &options, &|_| {})?
+                .elapsed
+                .as_secs_f64(),
+        );
+    }
     let frames: Vec<&[DVec3]> = rendered.frames.iter().map(|f| f.color.as_slice()).collect();
     let refs: Vec<&[DVec3]> = reference.frames.iter().map(Vec::as_slice).collect();
     let error = metrics::compare(
@@ -490,7 +532,7 @@ pub fn measure(
     );
     Ok(Row {
         config: config.clone(),
-        time: rendered.elapsed.as_secs_f64(),
+        time: median(&mut times),
         error,
         out_of_steps: rendered.stats.out_of_steps,
         dropped: rendered.stats.dropped,
@@ -593,7 +635,7 @@ pub fn bench(
             total,
             config,
         });
-        let row = measure(&scene, config, &reference, opts.threads)?;
+        let row = measure(&scene, config, &reference, opts.threads, opts.repeats)?;
         progress(Progress::Done {
             index: i + 1,
             total,
@@ -608,6 +650,20 @@ pub fn bench(
         reference,
         rows,
     })
+}
+
+/// The median of `v` (the mean of the middle two for an even count; NaN when empty).
+pub fn median(v: &mut [f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
 }
 
 /// Set every row's `pareto` flag from its (time, RMSE).
@@ -690,8 +746,8 @@ pub struct Speedups {
     /// Samples per pixel and seconds plain path tracing took to get there.
     pub spp: u32,
     pub time: f64,
-    /// For the baseline (light sampling), median and atrous curves: when each reaches the
-    /// target.
+    /// For the baseline (light sampling), random-sampler, median and atrous curves: when each
+    /// reaches the target.
     pub curves: Vec<(Family, Reach)>,
 }
 
@@ -717,11 +773,16 @@ pub fn speedups(rows: &[Row]) -> Option<Speedups> {
         .filter(|r| r.config.family == Family::NoLightSampling)
         .max_by_key(|r| r.config.spp)?;
     let target = plain.error.rmse;
-    let curves = [Family::Baseline, Family::Median, Family::Atrous]
-        .into_iter()
-        .filter(|f| rows.iter().any(|r| r.config.family == *f))
-        .map(|f| (f, time_to_error(&curve(rows, f), target)))
-        .collect();
+    let curves = [
+        Family::Baseline,
+        Family::Random,
+        Family::Median,
+        Family::Atrous,
+    ]
+    .into_iter()
+    .filter(|f| rows.iter().any(|r| r.config.family == *f))
+    .map(|f| (f, time_to_error(&curve(rows, f), target)))
+    .collect();
     Some(Speedups {
         target,
         spp: plain.config.spp,

@@ -68,6 +68,7 @@ fn colour(family: Family) -> RGBColor {
     match family {
         Family::Baseline => RGBColor(31, 119, 180),
         Family::NoLightSampling => RGBColor(214, 39, 40),
+        Family::Random => RGBColor(188, 189, 34),
         Family::Median => RGBColor(44, 160, 44),
         Family::Atrous => RGBColor(255, 127, 14),
         Family::Epsilon => RGBColor(148, 103, 189),

@@ -79,7 +79,7 @@ fn field(s: &str) -> String {
 }
 
 /// The CSV header.
-pub const CSV_HEADER: &str = "family,configuration,spp,bounces,epsilon,max_steps,light_sampling,denoise,time_s,rmse,psnr_db,ssim,bias_pct,pareto,out_of_steps,dropped";
+pub const CSV_HEADER: &str = "family,configuration,spp,bounces,epsilon,max_steps,light_sampling,sampler,denoise,time_s,rmse,psnr_db,ssim,bias_pct,pareto,out_of_steps,dropped";
 
 /// Every row as CSV, full precision, with a header line.
 pub fn csv(rows: &[Row]) -> String {
@@ -90,7 +90,7 @@ pub fn csv(rows: &[Row]) -> String {
         let e = &r.error;
         let _ = writeln!(
             out,
-            "{},{},{},{},{:e},{},{},{},{},{},{},{},{},{},{},{}",
+            "{},{},{},{},{:e},{},{},{},{},{},{},{},{},{},{},{},{}",
             field(c.family.name()),
             field(&c.label),
             c.spp,
@@ -98,6 +98,7 @@ pub fn csv(rows: &[Row]) -> String {
             c.epsilon,
             c.max_steps,
             c.light_sampling,
+            c.sampler.name(),
             denoise_name(c.denoise),
             r.time,
             e.rmse,
@@ -152,6 +153,7 @@ pub fn speedup_markdown(bench: &Bench) -> String {
     for &(family, reach) in &s.curves {
         let name = match family {
             Family::Baseline => "light sampling (baseline)",
+            Family::Random => "light sampling, random sampler",
             Family::Median => "light sampling + median denoiser",
             Family::Atrous => "light sampling + atrous denoiser",
             other => other.name(),
