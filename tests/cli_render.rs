@@ -129,6 +129,27 @@ fn the_same_seed_gives_the_same_file_whatever_the_threads() {
     let a = std::fs::read(dir.path().join("a.png")).unwrap();
     let b = std::fs::read(dir.path().join("b.png")).unwrap();
     assert_eq!(a, b);
+    // `--sampler random` is another image, and `sobol` (the default) the same one.
+    for (out, sampler) in [("c.png", "random"), ("d.png", "sobol")] {
+        let args = [
+            "render",
+            "scene.4ds",
+            "-o",
+            out,
+            "--size",
+            "40x20",
+            "--spp",
+            "2",
+            "--frames",
+            "1",
+            "--sampler",
+            sampler,
+        ];
+        let o = hyperslice(dir.path(), &args);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    assert_ne!(a, std::fs::read(dir.path().join("c.png")).unwrap());
+    assert_eq!(a, std::fs::read(dir.path().join("d.png")).unwrap());
 }
 
 #[test]
@@ -162,6 +183,9 @@ fn refuses_bad_flags_and_bad_scenes() {
     assert!(stderr(&o).contains("WIDTHxHEIGHT"), "{}", stderr(&o));
     let o = hyperslice(dir.path(), &["render", "scene.4ds", "--spp", "0"]);
     assert!(!o.status.success());
+    let o = hyperslice(dir.path(), &["render", "scene.4ds", "--sampler", "halton"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("sobol"), "{}", stderr(&o));
     std::fs::write(
         dir.path().join("bad.4ds"),
         "object x { shape = hypersphre(1) }",

@@ -247,7 +247,7 @@ fn a_quick_sweep_end_to_end() {
     }
     assert!(bench.rows.iter().any(|r| r.pareto));
     // Error falls as samples grow.
-    let baseline = sweep::curve(&bench.rows, Family::Baseline);
+    let baseline = sweep::curve(&bench.rows, Family::Baseline, sweep::Metric::Rmse);
     assert_eq!(baseline.len(), 3);
     assert!(
         baseline[2].1 < baseline[0].1,
@@ -262,9 +262,13 @@ fn a_quick_sweep_end_to_end() {
     let ratio = bench.reference_ratio().expect("a ratio");
     assert!(ratio > 0.0 && ratio < 1.0, "{ratio}");
     assert!(report::reference_summary(&bench).contains("its own error"));
-    let speedups = bench.speedups().expect("plain path tracing was measured");
-    assert_eq!(speedups.spp, 4);
-    assert_eq!(speedups.curves.len(), 4);
+    for metric in [sweep::Metric::Rmse, sweep::Metric::DisplayRmse] {
+        let speedups = bench
+            .speedups(metric)
+            .expect("plain path tracing was measured");
+        assert_eq!(speedups.spp, 4);
+        assert_eq!(speedups.curves.len(), 4);
+    }
 
     let csv = report::csv(&bench.rows);
     let lines: Vec<&str> = csv.lines().collect();

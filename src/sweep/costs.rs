@@ -86,14 +86,14 @@ impl Default for CostOptions {
             .collect();
         thread_list.push(cores);
         CostOptions {
-            size: (64, 48),
+            size: (128, 96),
             spp: 4,
             frames: 2,
             spp_list: vec![1, 2, 4, 8, 16, 32],
             frame_list: vec![1, 2, 4, 8, 16],
             thread_list,
-            object_list: vec![1, 2, 4, 8, 16, 32, 64],
-            repeats: 3,
+            object_list: vec![1, 4, 16, 64, 256],
+            repeats: 5,
             threads: None,
         }
     }
@@ -243,8 +243,9 @@ pub fn exponent(points: &[&CostPoint]) -> Option<f64> {
     (sxx > 0.0).then(|| pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx)
 }
 
-/// The curves as Markdown: per knob, its points (time, time per unit relative to the first
-/// point, evaluations per sample) and the fitted exponent.
+/// The curves as Markdown: per knob, its points (time; the cost of a unit relative to the
+/// first point, where a unit is one of `x` and for threads a thread's share, `time * x`; and
+/// evaluations per sample) and the fitted exponent.
 pub fn markdown(points: &[CostPoint]) -> String {
     let mut out = String::new();
     for knob in Knob::ALL {
@@ -253,18 +254,29 @@ pub fn markdown(points: &[CostPoint]) -> String {
         let k = exponent(&curve).map_or("-".into(), |k| format!("{k:.2}"));
         let _ = writeln!(
             out,
-            "\n**{}** (fitted exponent k = {k}):\n\n| {} | time (s) | time / x, relative | evaluations per sample |\n|--:|--:|--:|--:|",
+            "\n**{}** (fitted exponent k = {k}):\n\n| {} | time (s) | {}, relative | evaluations per sample |\n|--:|--:|--:|--:|",
             knob.name(),
-            knob.name()
+            knob.name(),
+            if knob == Knob::Threads {
+                "time x threads"
+            } else {
+                "time / x"
+            }
         );
-        let unit = first.time / first.x as f64;
+        let per_unit = |p: &CostPoint| {
+            if knob == Knob::Threads {
+                p.time * p.x as f64
+            } else {
+                p.time / p.x as f64
+            }
+        };
         for p in &curve {
             let _ = writeln!(
                 out,
                 "| {} | {} | {:.2} | {:.0} |",
                 p.x,
                 super::report::sig(p.time, 3),
-                p.time / p.x as f64 / unit,
+                per_unit(p) / per_unit(first),
                 p.evaluations_per_sample
             );
         }

@@ -567,6 +567,8 @@ pub struct Bench {
     /// The scene's settings as swept (size and frames overridden).
     pub settings: RenderSettings,
     pub threads: Option<usize>,
+    /// Renders of each configuration (its time is their median).
+    pub repeats: u32,
     pub reference: Reference,
     /// Every configuration measured, in plan order, with the Pareto front marked.
     pub rows: Vec<Row>,
@@ -597,8 +599,8 @@ impl Bench {
 
     /// How much faster the error of plain path tracing at its most samples is reached with
     /// light sampling and with each denoiser.
-    pub fn speedups(&self) -> Option<Speedups> {
-        speedups(&self.rows)
+    pub fn speedups(&self, metric: Metric) -> Option<Speedups> {
+        speedups(&self.rows, metric)
     }
 }
 
@@ -647,6 +649,7 @@ pub fn bench(
     Ok(Bench {
         settings: scene.render,
         threads: opts.threads,
+        repeats: opts.repeats.max(1),
         reference,
         rows,
     })
@@ -741,7 +744,9 @@ pub fn time_to_error(curve: &[(f64, f64)], target: f64) -> Reach {
 /// How much faster than plain path tracing a target error is reached.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Speedups {
-    /// The RMSE of plain path tracing (no light sampling, no denoiser) at its most samples.
+    /// The error compared.
+    pub metric: Metric,
+    /// The error of plain path tracing (no light sampling, no denoiser) at its most samples.
     pub target: f64,
     /// Samples per pixel and seconds plain path tracing took to get there.
     pub spp: u32,
@@ -759,20 +764,46 @@ impl Speedups {
     }
 }
 
-/// The (time, RMSE) points of one family's curve, in order of samples per pixel.
-pub fn curve(rows: &[Row], family: Family) -> Vec<(f64, f64)> {
+/// Which error the speed-ups compare.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Metric {
+    /// RMSE of linear radiance: every firefly counts at full strength.
+    Rmse,
+    /// RMSE of the displayed image, `10^(-PSNR / 20)`: what a viewer sees, after the tone
+    /// curve has compressed the highlights.
+    DisplayRmse,
+}
+
+impl Metric {
+    pub fn of(self, e: &ImageError) -> f64 {
+        match self {
+            Metric::Rmse => e.rmse,
+            Metric::DisplayRmse => 10f64.powf(-e.psnr / 20.0),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Metric::Rmse => "RMSE",
+            Metric::DisplayRmse => "display RMSE",
+        }
+    }
+}
+
+/// The (time, error) points of one family's curve, in order of samples per pixel.
+pub fn curve(rows: &[Row], family: Family, metric: Metric) -> Vec<(f64, f64)> {
     let mut v: Vec<&Row> = rows.iter().filter(|r| r.config.family == family).collect();
     v.sort_by_key(|r| r.config.spp);
-    v.iter().map(|r| (r.time, r.error.rmse)).collect()
+    v.iter().map(|r| (r.time, metric.of(&r.error))).collect()
 }
 
 /// See [`Speedups`]; `None` without rows of plain path tracing.
-pub fn speedups(rows: &[Row]) -> Option<Speedups> {
+pub fn speedups(rows: &[Row], metric: Metric) -> Option<Speedups> {
     let plain = rows
         .iter()
         .filter(|r| r.config.family == Family::NoLightSampling)
         .max_by_key(|r| r.config.spp)?;
-    let target = plain.error.rmse;
+    let target = metric.of(&plain.error);
     let curves = [
         Family::Baseline,
         Family::Random,
@@ -781,9 +812,10 @@ pub fn speedups(rows: &[Row]) -> Option<Speedups> {
     ]
     .into_iter()
     .filter(|f| rows.iter().any(|r| r.config.family == *f))
-    .map(|f| (f, time_to_error(&curve(rows, f), target)))
+    .map(|f| (f, time_to_error(&curve(rows, f, metric), target)))
     .collect();
     Some(Speedups {
+        metric,
         target,
         spp: plain.config.spp,
         time: plain.time,

@@ -1,7 +1,7 @@
 //! A sweep's results as CSV and Markdown, and writing them (with the plot) into a directory,
 //! every file atomically (a temporary file beside it, renamed into place once complete).
 
-use super::{Bench, Family, Reach, Row};
+use super::{Bench, Family, Metric, Reach, Row};
 use crate::check::Denoise;
 use std::fmt::Write as _;
 use std::io::Write as _;
@@ -138,17 +138,19 @@ pub fn markdown_table(rows: &[Row]) -> String {
     out
 }
 
-/// The speed-ups against plain path tracing, as Markdown (empty without plain path tracing).
-pub fn speedup_markdown(bench: &Bench) -> String {
-    let Some(s) = bench.speedups() else {
+/// The speed-ups against plain path tracing in `metric`, as Markdown (empty without plain
+/// path tracing).
+pub fn speedup_markdown(bench: &Bench, metric: Metric) -> String {
+    let Some(s) = bench.speedups(metric) else {
         return String::new();
     };
     let mut out = format!(
-        "Time to reach the RMSE of plain path tracing (no light sampling, no denoiser) at {} spp, {}, which took {} s there\n\
-         (log time interpolated against log RMSE along each curve):\n\n",
+        "Time to reach the {m} of plain path tracing (no light sampling, no denoiser) at {} spp, {}, which took {} s there\n\
+         (log time interpolated against log {m} along each curve):\n\n",
         s.spp,
         sig(s.target, 4),
-        sig(s.time, 3)
+        sig(s.time, 3),
+        m = metric.name()
     );
     for &(family, reach) in &s.curves {
         let name = match family {
@@ -242,19 +244,24 @@ pub fn markdown(bench: &Bench, ctx: &Context) -> String {
             .map_or("all cores".to_string(), |n| n.to_string())
     );
     let _ = writeln!(out, "- {}", reference_summary(bench));
-    out.push_str(
-        "- each configuration rendered once; time is the whole render's wall time, denoising included; \
-         RMSE and bias on linear radiance, PSNR and SSIM on the displayed image\n",
+    let _ = writeln!(
+        out,
+        "- time is the whole render's wall time, denoising included, the median of {} render{}; \
+         RMSE and bias on linear radiance, PSNR, SSIM and display RMSE (10^(-PSNR/20)) on the displayed image",
+        bench.repeats,
+        if bench.repeats == 1 { "" } else { "s" }
     );
     if let Some(w) = reference_warning(bench) {
         let _ = writeln!(out, "- warning: {w}");
     }
     out.push('\n');
     out.push_str(&markdown_table(&bench.rows));
-    let s = speedup_markdown(bench);
-    if !s.is_empty() {
-        out.push('\n');
-        out.push_str(&s);
+    for metric in [Metric::Rmse, Metric::DisplayRmse] {
+        let s = speedup_markdown(bench, metric);
+        if !s.is_empty() {
+            out.push('\n');
+            out.push_str(&s);
+        }
     }
     out
 }
