@@ -57,7 +57,7 @@ impl Default for RenderSettings {
             epsilon: 1e-4,
             max_steps: 1000,
             seed: 0,
-            denoise: Denoise::None,
+            denoise: Denoise::Atrous,
             quality: Quality::Custom,
             fps: 20.0,
             exposure: 1.0,

@@ -4,6 +4,7 @@
 
 use glam::DVec3;
 use hyperslice::Compilation;
+use hyperslice::check::Denoise;
 use hyperslice::render::driver::{self, Options, Rendered};
 use rand::Rng;
 use rand_pcg::Pcg64Mcg;
@@ -129,10 +130,16 @@ pub fn uniforms(rng: &mut Pcg64Mcg) -> DVec3 {
 /// Time any one of these renders may take (release build, a loaded 2-core machine).
 pub const TIME_BOUND: Duration = Duration::from_secs(30);
 
+/// Render `src`. The physics tests judge the estimator, so the scene is not denoised unless
+/// it says `denoise` itself (the language's default is `atrous`; the filters have their own
+/// tests in `tests/denoise.rs`).
 pub fn render_with(src: &str, options: Options) -> Rendered {
     let c = Compilation::from_source("test.4ds", src);
     assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
-    let scene = c.scene.expect("a scene");
+    let mut scene = c.scene.expect("a scene");
+    if !src.contains("denoise") {
+        scene.render.denoise = Denoise::None;
+    }
     let r = driver::render(&scene, &options, &|_| {}).expect("rendered");
     assert!(r.elapsed < TIME_BOUND, "took {:?}", r.elapsed);
     for film in &r.frames {
