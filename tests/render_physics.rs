@@ -280,13 +280,7 @@ fn error_falls_as_one_over_root_n() {
         let rmse = (sq / 32.0).sqrt();
         points.push(((spp as f64).ln(), rmse.ln()));
     }
-    let n = points.len() as f64;
-    let (mx, my) = (
-        points.iter().map(|p| p.0).sum::<f64>() / n,
-        points.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
-        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    let slope = slope(&points);
     assert!((-0.6..=-0.4).contains(&slope), "slope {slope}: {points:?}");
 }
 

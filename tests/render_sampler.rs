@@ -1,8 +1,9 @@
 //! The Owen-scrambled Sobol sampler (`render::sampler`): unbiased where the independent sampler
 //! is (analytic scenes, furnaces, agreement in scenes with fog, glass and rough metal), faster
-//! convergence where the integrand is low-dimensional, and still deterministic across thread
-//! counts. Replicates are pixels: each pixel has its own scramble, so pixels of a scene whose
-//! answer is the same everywhere are independent estimates.
+//! convergence where the integrand is low-dimensional. Sobol is the default, so the
+//! thread-count determinism test in `tests/render_physics.rs` covers it. Replicates are
+//! pixels: each pixel has its own scramble, so pixels of a scene whose answer is the same
+//! everywhere are independent estimates.
 
 mod common;
 
@@ -99,13 +100,7 @@ fn sobol_converges_faster_on_a_one_dimensional_integrand() {
         );
         points.push(((spp as f64).ln(), mse.sqrt().ln()));
     }
-    let n = points.len() as f64;
-    let (mx, my) = (
-        points.iter().map(|p| p.0).sum::<f64>() / n,
-        points.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    let slope = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
-        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>();
+    let slope = slope(&points);
     assert!((-1.2..=-0.8).contains(&slope), "slope {slope}: {points:?}");
 }
 
@@ -149,40 +144,5 @@ fn sobol_agrees_with_random_in_fog_glass_and_metal() {
         &src.replace("seed = 1", "seed = 2"),
         with(SamplerKind::Sobol),
     );
-    let ((m1, s1), (m2, s2)) = (mean_and_error(&random), mean_and_error(&sobol));
-    for c in 0..3 {
-        let tol = 4.0 * (s1[c] * s1[c] + s2[c] * s2[c]).sqrt();
-        assert!(
-            (m1[c] - m2[c]).abs() <= tol,
-            "channel {c}: random {} sobol {} (4 sigma = {tol})",
-            m1[c],
-            m2[c]
-        );
-    }
-}
-
-#[test]
-fn sobol_is_bit_identical_whatever_the_thread_count() {
-    let src = "render { size = 24 x 20  spp = 5  frames = 2 }
-               camera { from = [0, 0.5, -4, 0] to = [0, 0.5, -4, 0.5] }
-               sky = rgb(0.5)
-               medium = fog(extinction: 0.05, albedo: 0.9)
-               object ball { shape = hypersphere(1) material = glass(ior: 1.5, extinction: 0.3) }
-               object floor { shape = halfspace(offset: -1) material = diffuse() }
-               object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 20) }";
-    let run = |threads| {
-        render_with(
-            src,
-            Options {
-                threads: Some(threads),
-                ..with(SamplerKind::Sobol)
-            },
-        )
-    };
-    let (one, two) = (run(1), run(2));
-    let random = render_with(src, with(SamplerKind::Random));
-    for ((a, b), c) in one.frames.iter().zip(&two.frames).zip(&random.frames) {
-        assert_eq!(a.color, b.color);
-        assert_ne!(a.color, c.color, "the sampler made no difference");
-    }
+    assert_means_agree("random / sobol", &random, &sobol);
 }

@@ -180,3 +180,31 @@ pub fn assert_mean(what: &str, r: &Rendered, want: DVec3) {
         );
     }
 }
+
+/// The least-squares slope of `y` against `x`.
+pub fn slope(points: &[(f64, f64)]) -> f64 {
+    let n = points.len() as f64;
+    let (mx, my) = (
+        points.iter().map(|p| p.0).sum::<f64>() / n,
+        points.iter().map(|p| p.1).sum::<f64>() / n,
+    );
+    points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
+        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+}
+
+/// Two independent renders of the same scene agree: every channel's means within 4 standard
+/// errors of their difference. Returns both renders' standard errors.
+pub fn assert_means_agree(what: &str, a: &Rendered, b: &Rendered) -> (DVec3, DVec3) {
+    let ((m1, s1), (m2, s2)) = (mean_and_error(a), mean_and_error(b));
+    eprintln!("{what}: {m1} +- {s1} against {m2} +- {s2}");
+    for c in 0..3 {
+        let tol = 4.0 * (s1[c] * s1[c] + s2[c] * s2[c]).sqrt();
+        assert!(
+            (m1[c] - m2[c]).abs() <= tol,
+            "{what}: channel {c}: {} against {} (4 sigma = {tol})",
+            m1[c],
+            m2[c]
+        );
+    }
+    (s1, s2)
+}
