@@ -124,6 +124,12 @@ fn plan_covers_every_family_and_the_reference_outsamples_it() {
             c.label
         );
     }
+    // The reference is as accurate as the most accurate configuration.
+    let accurate = sweep::reference_settings(&configs, &opts.settings(&s.render));
+    assert_eq!(
+        (accurate.bounces, accurate.epsilon, accurate.max_steps),
+        (16, 1e-5, 5000)
+    );
     // A family filter keeps only those families.
     let only = SweepOptions {
         families: vec![Family::Baseline, Family::Random],

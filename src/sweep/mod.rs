@@ -336,7 +336,22 @@ pub struct Reference {
     pub source: String,
 }
 
-/// Render the reference for `scene` (its settings, as overridden by the caller): `spp` samples
+/// The most accurate marching and depth among `configs` and the scene's own settings `r`:
+/// the most bounces, the smallest epsilon and the most steps. The reference renders with them,
+/// so that what a configuration gives up (light from deeper paths, rays that stop early) shows
+/// as error instead of being shared with the reference.
+pub fn reference_settings(configs: &[Config], r: &RenderSettings) -> RenderSettings {
+    let mut out = r.clone();
+    for c in configs {
+        out.bounces = out.bounces.max(c.bounces);
+        out.epsilon = out.epsilon.min(c.epsilon);
+        out.max_steps = out.max_steps.max(c.max_steps);
+    }
+    out
+}
+
+/// Render the reference for `scene` (its settings, as overridden by the caller, should come
+/// from [`reference_settings`]): `spp` samples
 /// per pixel, light sampling on, no denoiser, seed `seed + REFERENCE_SEED_OFFSET`, and
 /// independent random numbers, so that its pixels' standard errors (which assume independent
 /// samples) measure its own error honestly.
@@ -373,7 +388,10 @@ pub fn render_reference(
         seed: Some(seed),
         noise: Some((sq / n.max(1) as f64).sqrt()),
         time: Some(rendered.elapsed.as_secs_f64()),
-        source: format!("rendered at {spp} spp, seed {seed}"),
+        source: format!(
+            "rendered at {spp} spp, seed {seed}, bounces {}, epsilon {:e}, max steps {}",
+            scene.render.bounces, scene.render.epsilon, scene.render.max_steps
+        ),
     })
 }
 
@@ -623,7 +641,9 @@ pub fn bench(
         None => {
             let spp = reference_spp(&configs, opts.reference_spp);
             progress(Progress::Reference { spp });
-            render_reference(&scene, spp, opts.threads)?
+            let mut accurate = scene.clone();
+            accurate.render = reference_settings(&configs, &scene.render);
+            render_reference(&accurate, spp, opts.threads)?
         }
     };
     progress(Progress::ReferenceDone {
