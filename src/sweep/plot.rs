@@ -1,9 +1,11 @@
-//! The sweep as a picture: RMSE against wall time, both on log scales; one colour and line per
-//! curve family, markers for the single-setting families, and the Pareto front as a dashed
-//! line. Text needs a font from the system; without one the plot is drawn without text.
+//! The sweep as a picture: two panels, RMSE of linear radiance and RMSE of the displayed image
+//! against wall time, all on log scales; one colour and line per curve family, markers for the
+//! single-setting families, and each panel's Pareto front as a dashed line. Text needs a font
+//! from the system; without one the plot is drawn without text.
 
 use super::report::{sig, write_atomic};
-use super::{Family, Row};
+use super::{Family, Metric, Row, pareto_front};
+use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 use plotters::style::{FontStyle, register_font};
@@ -11,7 +13,7 @@ use std::path::Path;
 use std::sync::OnceLock;
 
 /// Plot size in pixels.
-pub const WIDTH: u32 = 1000;
+pub const WIDTH: u32 = 1800;
 pub const HEIGHT: u32 = 700;
 
 /// The font family the plot's text uses (registered by [`font`]).
@@ -95,160 +97,180 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo..hi
 }
 
-/// The plot as RGB8 pixels, `width * height * 3` bytes; `title` `None` draws no text at all
-/// (no title, tick labels, axis names or legend).
+fn err(e: &dyn std::fmt::Display) -> String {
+    format!("cannot draw the plot: {e}")
+}
+
+/// The plot as RGB8 pixels, `width * height * 3` bytes: the linear-RMSE panel on the left, the
+/// display-RMSE panel on the right. `title` `None` draws no text at all (no title, tick
+/// labels, axis names or legend); each panel's caption is `title: <metric> against time`.
 pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Result<Vec<u8>, String> {
-    let err = |e: &dyn std::fmt::Display| format!("cannot draw the plot: {e}");
     let mut buf = vec![255u8; width as usize * height as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
-        let valid = |r: &&Row| {
-            r.time.is_finite() && r.time > 0.0 && r.error.rmse.is_finite() && r.error.rmse > 0.0
-        };
-        let shown: Vec<&Row> = rows.iter().filter(valid).collect();
-        let xs = range(shown.iter().map(|r| r.time));
-        let ys = range(shown.iter().map(|r| r.error.rmse));
-        let mut builder = ChartBuilder::on(&root);
-        builder.margin(20);
-        if let Some(t) = title {
-            builder
-                .caption(t, (FONT, 24))
-                .x_label_area_size(55)
-                .y_label_area_size(85);
-        } else {
-            builder.x_label_area_size(5).y_label_area_size(5);
-        }
-        let mut chart = builder
-            .build_cartesian_2d(xs.clone().log_scale(), ys.clone().log_scale())
-            .map_err(|e| err(&e))?;
-        // Tick labels at 1, 2 and 5 times powers of ten only (the other ticks stay unlabelled).
-        let label = |v: &f64| {
-            let lead = *v / 10f64.powf(v.log10().floor());
-            if [1.0, 2.0, 5.0, 10.0]
-                .iter()
-                .any(|m| (lead - m).abs() < 1e-6)
-            {
-                sig(*v, 1)
-            } else {
-                String::new()
-            }
-        };
-        let mut mesh = chart.configure_mesh();
-        if title.is_some() {
-            mesh.x_desc("wall time (s)")
-                .y_desc("RMSE against the reference")
-                .label_style((FONT, 15))
-                .axis_desc_style((FONT, 17))
-                .x_labels(40)
-                .y_labels(40)
-                .max_light_lines(0)
-                .bold_line_style(BLACK.mix(0.15))
-                .x_label_formatter(&label)
-                .y_label_formatter(&label);
-        } else {
-            mesh.disable_axes();
-        }
-        mesh.draw().map_err(|e| err(&e))?;
-        if title.is_none() {
-            // The axes, without their tick labels.
-            let frame = [(xs.start, ys.start), (xs.end, ys.end)];
-            chart
-                .draw_series(std::iter::once(Rectangle::new(
-                    frame,
-                    BLACK.stroke_width(1),
-                )))
-                .map_err(|e| err(&e))?;
-        }
-
-        for family in Family::ALL {
-            let mut members: Vec<&Row> = shown
-                .iter()
-                .copied()
-                .filter(|r| r.config.family == family)
-                .collect();
-            if members.is_empty() {
-                continue;
-            }
-            members.sort_by(|a, b| {
-                (a.config.spp, a.time)
-                    .partial_cmp(&(b.config.spp, b.time))
-                    .unwrap_or(std::cmp::Ordering::Equal)
-            });
-            let pts: Vec<(f64, f64)> = members.iter().map(|r| (r.time, r.error.rmse)).collect();
-            let c = colour(family);
-            let name = family.name();
-            if family.is_curve() {
-                chart
-                    .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                    .map_err(|e| err(&e))?
-                    .label(name)
-                    .legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
-                    });
-                chart
-                    .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
-                    .map_err(|e| err(&e))?;
-            } else {
-                // Each family its own marker, in the plot and in the legend.
-                match family {
-                    Family::Epsilon => chart
-                        .draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 7, c.filled())))
-                        .map_err(|e| err(&e))?
-                        .label(name)
-                        .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, c.filled())),
-                    Family::MaxSteps => chart
-                        .draw_series(pts.iter().map(|&p| Cross::new(p, 6, c.stroke_width(2))))
-                        .map_err(|e| err(&e))?
-                        .label(name)
-                        .legend(move |(x, y)| Cross::new((x + 10, y), 6, c.stroke_width(2))),
-                    Family::Bounces => chart
-                        .draw_series(pts.iter().map(|&p| {
-                            EmptyElement::at(p) + Rectangle::new([(-5, -5), (5, 5)], c.filled())
-                        }))
-                        .map_err(|e| err(&e))?
-                        .label(name)
-                        .legend(move |(x, y)| {
-                            Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], c.filled())
-                        }),
-                    _ => chart
-                        .draw_series(pts.iter().map(|&p| Circle::new(p, 7, c.filled())))
-                        .map_err(|e| err(&e))?
-                        .label(name)
-                        .legend(move |(x, y)| Circle::new((x + 10, y), 7, c.filled())),
-                };
-            }
-        }
-
-        let mut front: Vec<(f64, f64)> = shown
-            .iter()
-            .filter(|r| r.pareto)
-            .map(|r| (r.time, r.error.rmse))
-            .collect();
-        front.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
-        if !front.is_empty() {
-            chart
-                .draw_series(DashedLineSeries::new(front, 8, 5, BLACK.stroke_width(2)))
-                .map_err(|e| err(&e))?
-                .label("Pareto front")
-                .legend(|(x, y)| {
-                    DashedPathElement::new(vec![(x, y), (x + 20, y)], 6, 3, BLACK.stroke_width(2))
-                });
-        }
-
-        if title.is_some() {
-            chart
-                .configure_series_labels()
-                .position(SeriesLabelPosition::UpperRight)
-                .background_style(WHITE.mix(0.85))
-                .border_style(BLACK)
-                .label_font((FONT, 15))
-                .draw()
-                .map_err(|e| err(&e))?;
+        let (left, right) = root.split_horizontally(width / 2);
+        for (area, metric) in [(left, Metric::Rmse), (right, Metric::DisplayRmse)] {
+            let caption = title.map(|t| format!("{t}: {} against time", metric.name()));
+            panel(&area, rows, caption.as_deref(), metric)?;
         }
         root.present().map_err(|e| err(&e))?;
     }
     Ok(buf)
+}
+
+/// One panel: `metric` against wall time.
+fn panel(
+    area: &DrawingArea<BitMapBackend, Shift>,
+    rows: &[Row],
+    title: Option<&str>,
+    metric: Metric,
+) -> Result<(), String> {
+    let y = |r: &Row| metric.of(&r.error);
+    let valid = |r: &&Row| r.time.is_finite() && r.time > 0.0 && y(r).is_finite() && y(r) > 0.0;
+    let shown: Vec<&Row> = rows.iter().filter(valid).collect();
+    let xs = range(shown.iter().map(|r| r.time));
+    let ys = range(shown.iter().map(|r| y(r)));
+    let mut builder = ChartBuilder::on(area);
+    builder.margin(20);
+    if let Some(t) = title {
+        builder
+            .caption(t, (FONT, 24))
+            .x_label_area_size(55)
+            .y_label_area_size(85);
+    } else {
+        builder.x_label_area_size(5).y_label_area_size(5);
+    }
+    let mut chart = builder
+        .build_cartesian_2d(xs.clone().log_scale(), ys.clone().log_scale())
+        .map_err(|e| err(&e))?;
+    // Tick labels at 1, 2 and 5 times powers of ten only (the other ticks stay unlabelled).
+    let label = |v: &f64| {
+        let lead = *v / 10f64.powf(v.log10().floor());
+        if [1.0, 2.0, 5.0, 10.0]
+            .iter()
+            .any(|m| (lead - m).abs() < 1e-6)
+        {
+            sig(*v, 1)
+        } else {
+            String::new()
+        }
+    };
+    let mut mesh = chart.configure_mesh();
+    if title.is_some() {
+        mesh.x_desc("wall time (s)")
+            .y_desc(format!("{} against the reference", metric.name()))
+            .label_style((FONT, 15))
+            .axis_desc_style((FONT, 17))
+            .x_labels(40)
+            .y_labels(40)
+            .max_light_lines(0)
+            .bold_line_style(BLACK.mix(0.15))
+            .x_label_formatter(&label)
+            .y_label_formatter(&label);
+    } else {
+        mesh.disable_axes();
+    }
+    mesh.draw().map_err(|e| err(&e))?;
+    if title.is_none() {
+        // The axes, without their tick labels.
+        let frame = [(xs.start, ys.start), (xs.end, ys.end)];
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                frame,
+                BLACK.stroke_width(1),
+            )))
+            .map_err(|e| err(&e))?;
+    }
+
+    for family in Family::ALL {
+        let mut members: Vec<&Row> = shown
+            .iter()
+            .copied()
+            .filter(|r| r.config.family == family)
+            .collect();
+        if members.is_empty() {
+            continue;
+        }
+        members.sort_by(|a, b| {
+            (a.config.spp, a.time)
+                .partial_cmp(&(b.config.spp, b.time))
+                .unwrap_or(std::cmp::Ordering::Equal)
+        });
+        let pts: Vec<(f64, f64)> = members.iter().map(|r| (r.time, y(r))).collect();
+        let c = colour(family);
+        let name = family.name();
+        if family.is_curve() {
+            chart
+                .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
+                .map_err(|e| err(&e))?
+                .label(name)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
+                });
+            chart
+                .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
+                .map_err(|e| err(&e))?;
+        } else {
+            // Each family its own marker, in the plot and in the legend.
+            match family {
+                Family::Epsilon => chart
+                    .draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 7, c.filled())))
+                    .map_err(|e| err(&e))?
+                    .label(name)
+                    .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, c.filled())),
+                Family::MaxSteps => chart
+                    .draw_series(pts.iter().map(|&p| Cross::new(p, 6, c.stroke_width(2))))
+                    .map_err(|e| err(&e))?
+                    .label(name)
+                    .legend(move |(x, y)| Cross::new((x + 10, y), 6, c.stroke_width(2))),
+                Family::Bounces => chart
+                    .draw_series(pts.iter().map(|&p| {
+                        EmptyElement::at(p) + Rectangle::new([(-5, -5), (5, 5)], c.filled())
+                    }))
+                    .map_err(|e| err(&e))?
+                    .label(name)
+                    .legend(move |(x, y)| {
+                        Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], c.filled())
+                    }),
+                _ => chart
+                    .draw_series(pts.iter().map(|&p| Circle::new(p, 7, c.filled())))
+                    .map_err(|e| err(&e))?
+                    .label(name)
+                    .legend(move |(x, y)| Circle::new((x + 10, y), 7, c.filled())),
+            };
+        }
+    }
+
+    let points: Vec<(f64, f64)> = shown.iter().map(|r| (r.time, y(r))).collect();
+    let mut front: Vec<(f64, f64)> = points
+        .iter()
+        .zip(pareto_front(&points))
+        .filter(|(_, on)| *on)
+        .map(|(p, _)| *p)
+        .collect();
+    front.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
+    if !front.is_empty() {
+        chart
+            .draw_series(DashedLineSeries::new(front, 8, 5, BLACK.stroke_width(2)))
+            .map_err(|e| err(&e))?
+            .label("Pareto front")
+            .legend(|(x, y)| {
+                DashedPathElement::new(vec![(x, y), (x + 20, y)], 6, 3, BLACK.stroke_width(2))
+            });
+    }
+
+    if title.is_some() {
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 15))
+            .draw()
+            .map_err(|e| err(&e))?;
+    }
+    Ok(())
 }
 
 /// Encode RGB8 pixels as PNG.

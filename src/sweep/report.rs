@@ -317,8 +317,7 @@ pub fn write_results(dir: &Path, bench: &Bench, ctx: &Context) -> Result<Written
     let plot_path = dir.join("plot.png");
     write_atomic(&csv_path, csv(&bench.rows).as_bytes())?;
     write_atomic(&md_path, markdown(bench, ctx).as_bytes())?;
-    let title = format!("{}: error against time", ctx.scene);
-    let outcome = super::plot::write_png(&bench.rows, &plot_path, &title)?;
+    let outcome = super::plot::write_png(&bench.rows, &plot_path, &ctx.scene)?;
     Ok(Written {
         csv: csv_path,
         markdown: md_path,
