@@ -29,7 +29,7 @@ pub enum SamplerKind {
     /// Independent uniform numbers (PCG32), one stream per sample.
     Random,
     /// Owen-scrambled Sobol points, one sequence per pixel, with PCG32 beyond its range (the
-    /// default: it measured 1.3 to 3.1 dB higher PSNR at 16 spp on every example scene, see
+    /// default: it measured 1.0 to 3.1 dB higher PSNR at 16 spp on every example scene, see
     /// `docs/performance.md`).
     #[default]
     Sobol,
