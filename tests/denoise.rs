@@ -324,24 +324,23 @@ fn atrous_keeps_mean_luminance_where_median_darkens() {
     let (frames, truth) = skewed_frames(3, 64, &mut rng);
     let truth = truth.x;
     let noisy_mean = mean_luminance(&frames);
-    let noisy_rmse = (frames
-        .iter()
-        .flat_map(|f| &f.color)
-        .map(|c| (c.x - truth).powi(2))
-        .sum::<f64>()
-        / (3 * 128 * 128) as f64)
-        .sqrt();
+    // RMSE of the red channel against the flat truth, over every pixel of every frame.
+    let red_rmse = |frames: &[Film]| {
+        let n: usize = frames.iter().map(|f| f.color.len()).sum();
+        (frames
+            .iter()
+            .flat_map(|f| &f.color)
+            .map(|c| (c.x - truth).powi(2))
+            .sum::<f64>()
+            / n as f64)
+            .sqrt()
+    };
+    let noisy_rmse = red_rmse(&frames);
 
     let mut a = frames.clone();
     denoise(&mut a, Filter::Atrous, &AtrousOptions::default());
     let a_mean = mean_luminance(&a);
-    let a_rmse = (a
-        .iter()
-        .flat_map(|f| &f.color)
-        .map(|c| (c.x - truth).powi(2))
-        .sum::<f64>()
-        / (3 * 128 * 128) as f64)
-        .sqrt();
+    let a_rmse = red_rmse(&a);
 
     let mut m = frames.clone();
     denoise(&mut m, Filter::Median, &AtrousOptions::default());

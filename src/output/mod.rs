@@ -537,35 +537,28 @@ pub fn write(
     check_directory(path)?;
     match format {
         Format::Gif => write_gif(path, frames, settings),
-        Format::Png => {
-            let limit = u32::MAX as usize;
-            for f in frames {
-                if f.width > limit || f.height > limit {
-                    return Err(too_large(path, format, f, limit));
+        Format::Png | Format::Exr => {
+            if format == Format::Png {
+                let limit = u32::MAX as usize;
+                for f in frames {
+                    if f.width > limit || f.height > limit {
+                        return Err(too_large(path, format, f, limit));
+                    }
                 }
             }
             let files = write_numbered(path, frames.len(), |i, w| {
                 let f = &frames[i];
-                let pixels = tonemap::to_srgb8(f, settings.exposure);
-                png::encode(w, &pixels, f.width as u32, f.height as u32).map_err(|e| {
-                    OutputError::Encode {
-                        path: path.to_path_buf(),
-                        format,
-                        message: e.to_string(),
-                    }
-                })
-            })?;
-            Ok(Written {
-                files,
-                gif_psnr: None,
-            })
-        }
-        Format::Exr => {
-            let files = write_numbered(path, frames.len(), |i, w| {
-                openexr::encode(w, &frames[i], settings.exposure).map_err(|e| OutputError::Encode {
+                let encoded = if format == Format::Png {
+                    let pixels = tonemap::to_srgb8(f, settings.exposure);
+                    png::encode(w, &pixels, f.width as u32, f.height as u32)
+                        .map_err(|e| e.to_string())
+                } else {
+                    openexr::encode(w, f, settings.exposure).map_err(|e| e.to_string())
+                };
+                encoded.map_err(|message| OutputError::Encode {
                     path: path.to_path_buf(),
                     format,
-                    message: e.to_string(),
+                    message,
                 })
             })?;
             Ok(Written {
