@@ -1,6 +1,7 @@
 //! `hyperslice bench`: measure speed against accuracy on one scene (see `sweep`), print the
 //! table, and write `results.csv`, `results.md` and `plot.png`.
 
+use crate::render_command::parse_size;
 use clap::Args;
 use hyperslice::Compilation;
 use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
@@ -94,19 +95,6 @@ fn parse_spp_list(s: &str) -> Result<SppList, String> {
         })
         .collect::<Result<Vec<_>, _>>()?;
     Ok(SppList(list))
-}
-
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
-    let side = |v: &str| match v.trim().parse::<u32>() {
-        Ok(n) if (1..=16384).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "`{v}` is not a valid side; each side is a whole number in 1..=16384"
-        )),
-    };
-    let (w, h) = s
-        .split_once(['x', 'X'])
-        .ok_or_else(|| format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 160x120"))?;
-    Ok((side(w)?, side(h)?))
 }
 
 /// The command line as typed, for the report (the program by its name only).

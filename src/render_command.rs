@@ -120,7 +120,8 @@ enum QualityArg {
     Final,
 }
 
-fn parse_size(s: &str) -> Result<(u32, u32), String> {
+/// `WIDTHxHEIGHT`, each side in 1..=16384 (also used by `bench --size`).
+pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let err = || format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 160x120");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
     let side = |v: &str| match v.trim().parse::<u32>() {
