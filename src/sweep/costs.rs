@@ -1,8 +1,8 @@
 //! Cost curves (`hyperslice bench FILE --costs`): render time against image pixels, samples per
 //! pixel, frames, worker threads and number of objects, each varied alone from a small base
-//! setting, with the exponent of the power law `time ~ x^k` fitted to each curve. Rendering is
-//! linear in pixels, samples and frames (`k = 1`) apart from fixed costs (compiling each frame's
-//! tapes, starting the pool, denoising off), which flatten the curve's small end; threads should
+//! setting (no denoiser), with the exponent of the power law `time ~ x^k` fitted to each curve.
+//! Rendering is linear in pixels, samples and frames (`k = 1`) apart from fixed costs (compiling
+//! each frame's tapes, starting the pool), which flatten the curve's small end; threads should
 //! give `k = -1` up to the cores there are. Objects are not linear: the scene distance is a
 //! minimum over every object, so each step of the marcher costs more with more objects, while
 //! how many steps a ray takes depends on the layout.
@@ -236,11 +236,16 @@ pub fn exponent(points: &[&CostPoint]) -> Option<f64> {
         .filter(|p| p.x > 0 && p.time > 0.0)
         .map(|p| ((p.x as f64).ln(), p.time.ln()))
         .collect();
-    let n = pts.len() as f64;
-    let mx = pts.iter().map(|p| p.0).sum::<f64>() / n;
-    let my = pts.iter().map(|p| p.1).sum::<f64>() / n;
-    let sxx: f64 = pts.iter().map(|p| (p.0 - mx).powi(2)).sum();
-    (sxx > 0.0).then(|| pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx)
+    slope(&pts)
+}
+
+/// The least-squares slope of `y` against `x` (`None` unless two `x` differ).
+pub fn slope(points: &[(f64, f64)]) -> Option<f64> {
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    (sxx > 0.0).then(|| points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>() / sxx)
 }
 
 /// The curves as Markdown: per knob, its points (time; the cost of a unit relative to the

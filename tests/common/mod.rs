@@ -181,15 +181,9 @@ pub fn assert_mean(what: &str, r: &Rendered, want: DVec3) {
     }
 }
 
-/// The least-squares slope of `y` against `x`.
+/// The least-squares slope of `y` against `x` (the fit `bench --costs` uses).
 pub fn slope(points: &[(f64, f64)]) -> f64 {
-    let n = points.len() as f64;
-    let (mx, my) = (
-        points.iter().map(|p| p.0).sum::<f64>() / n,
-        points.iter().map(|p| p.1).sum::<f64>() / n,
-    );
-    points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum::<f64>()
-        / points.iter().map(|p| (p.0 - mx).powi(2)).sum::<f64>()
+    hyperslice::sweep::costs::slope(points).expect("two distinct x")
 }
 
 /// Two independent renders of the same scene agree: every channel's means within 4 standard
