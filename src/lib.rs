@@ -6,6 +6,7 @@ pub mod check;
 pub mod denoise;
 pub mod diagnostic;
 pub mod ir;
+pub mod math;
 pub mod metrics;
 pub mod output;
 pub mod render;

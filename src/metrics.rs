@@ -3,7 +3,8 @@
 //! displayed image (exposure, filmic curve and sRGB encoding, in [0, 1]), which is what a
 //! viewer judges.
 
-use crate::output::tonemap::{filmic, srgb_encode};
+use crate::math::color::srgb_encode;
+use crate::output::tonemap::filmic;
 use glam::DVec3;
 
 /// Rec. 709 luminance of linear RGB.

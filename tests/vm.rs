@@ -468,7 +468,7 @@ fn d4_decoder_finds_the_nearest_point_even_far_away() {
     for scale in [1.0, 1e3, 1e6] {
         for _ in 0..20000 {
             let p = random_point(&mut rng, scale);
-            let o = ir::eval::d4(p);
+            let o = hyperslice::math::kernel::d4(p);
             let cell = [o[4], o[5], o[6], o[7]];
             assert_eq!(
                 (cell.iter().sum::<f64>() as i64).rem_euclid(2),

@@ -320,7 +320,7 @@ fn build(a: &mut Args, name: &'static str) -> Value {
             let s = a.constant(1, Type::Num, num(1.0), unit, "between 0 and 1");
             let v = a.constant(2, Type::Num, num(1.0), nonneg, "at least 0");
             match (h, s, v) {
-                (Value::Angle(h), Value::Num(s), Value::Num(v)) => Value::Color(hsv(h, s, v)),
+                (Value::Angle(h), Value::Num(s), Value::Num(v)) => Value::Color(crate::math::color::hsv(h, s, v)),
                 _ => Value::Error,
             }
         }
@@ -979,22 +979,6 @@ fn check_fit(ck: &mut Checker, s: &Shape, lat: &Lattice, lspan: Span, span: Span
 
 fn round4(x: f64) -> f64 {
     (x * 1e4).round() / 1e4
-}
-
-fn hsv(h: f64, s: f64, v: f64) -> [f64; 3] {
-    let h = ops::floor_mod(h.to_degrees(), 360.0) / 60.0;
-    let c = v * s;
-    let x = c * (1.0 - (h % 2.0 - 1.0).abs());
-    let (r, g, b) = match h as u32 {
-        0 => (c, x, 0.0),
-        1 => (x, c, 0.0),
-        2 => (0.0, c, x),
-        3 => (0.0, x, c),
-        4 => (x, 0.0, c),
-        _ => (c, 0.0, x),
-    };
-    let m = v - c;
-    [r + m, g + m, b + m]
 }
 
 #[cfg(test)]

@@ -9,6 +9,7 @@ use super::suggest::did_you_mean;
 use super::types::Type;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
+use crate::math::color;
 use crate::source::{FileId, Span};
 use crate::syntax::ast::*;
 use std::cell::Cell;
@@ -274,7 +275,7 @@ impl<'a> Checker<'a> {
             }
             Expr::Bool(b) => Value::Bool(*b),
             Expr::Str(s) => Value::Str(s.as_str().into()),
-            Expr::Hex(rgb) => Value::Color(rgb.map(|c| srgb_to_linear(c as f64 / 255.0))),
+            Expr::Hex(rgb) => Value::Color(rgb.map(|c| color::srgb_to_linear(c as f64 / 255.0))),
             Expr::Name(name) => self.lookup(file, env, name),
             Expr::List(xs) => self.list(file, env, xs, span),
             Expr::Unary(op, a) => {
@@ -955,14 +956,5 @@ fn param_list(params: &[&str]) -> String {
             .map(|p| format!("`{p}`"))
             .collect::<Vec<_>>()
             .join(", ")
-    }
-}
-
-/// `#rrggbb` is sRGB; the renderer works in linear light.
-pub fn srgb_to_linear(c: f64) -> f64 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
     }
 }

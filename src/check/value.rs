@@ -7,46 +7,7 @@ use crate::syntax::ast::{BinOp, ExprId, FnDef, Ident, UnOp};
 use std::fmt;
 use std::rc::Rc;
 
-/// The six coordinate planes of 4D, as axis pairs (x=0, y=1, z=2, w=3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Plane {
-    XY,
-    XZ,
-    XW,
-    YZ,
-    YW,
-    ZW,
-}
-
-impl Plane {
-    pub const ALL: [(&'static str, Plane); 6] = [
-        ("xy", Plane::XY),
-        ("xz", Plane::XZ),
-        ("xw", Plane::XW),
-        ("yz", Plane::YZ),
-        ("yw", Plane::YW),
-        ("zw", Plane::ZW),
-    ];
-
-    pub fn axes(self) -> (usize, usize) {
-        match self {
-            Plane::XY => (0, 1),
-            Plane::XZ => (0, 2),
-            Plane::XW => (0, 3),
-            Plane::YZ => (1, 2),
-            Plane::YW => (1, 3),
-            Plane::ZW => (2, 3),
-        }
-    }
-
-    pub fn name(self) -> &'static str {
-        Plane::ALL
-            .iter()
-            .find(|(_, p)| *p == self)
-            .map(|(n, _)| *n)
-            .unwrap_or("?")
-    }
-}
+pub use crate::math::Plane;
 
 /// A lattice for tiling. Its parameters are compile-time constants.
 #[derive(Clone, Debug, PartialEq)]

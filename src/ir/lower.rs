@@ -9,6 +9,7 @@ use crate::check::value::{
     ShapeKind, Value,
 };
 use crate::syntax::ast::{BinOp, UnOp};
+use crate::math::plane::rotation;
 use std::collections::HashMap;
 
 /// The lowered scene: one graph, with roots for each object and for the whole scene.
@@ -764,21 +765,6 @@ impl Lower<'_> {
             }
         }
     }
-}
-
-/// The matrix turning by `angle` in `plane`, from its first axis towards its second.
-pub fn rotation(plane: Plane, angle: f64) -> [[f64; 4]; 4] {
-    let (i, j) = plane.axes();
-    let mut m = [[0.0; 4]; 4];
-    for (k, row) in m.iter_mut().enumerate() {
-        row[k] = 1.0;
-    }
-    let (s, c) = angle.sin_cos();
-    m[i][i] = c;
-    m[i][j] = -s;
-    m[j][i] = s;
-    m[j][j] = c;
-    m
 }
 
 /// Unit vertices of a regular 4-simplex centred on the origin.

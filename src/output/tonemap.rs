@@ -1,6 +1,7 @@
 //! Linear HDR radiance to 8-bit sRGB.
 
 use super::HdrImage;
+use crate::math::color::srgb_encode;
 
 /// The filmic tone curve: the ACES fitted curve of Narkowicz (2015),
 ///
@@ -23,22 +24,6 @@ pub fn filmic(x: f32) -> f32 {
     y.clamp(0.0, 1.0)
 }
 
-/// The exact sRGB transfer function (IEC 61966-2-1): `12.92 x` up to `x = 0.0031308`, then
-/// `1.055 x^(1/2.4) - 0.055`. The input is clamped to `[0, 1]` first; NaN gives 0.
-pub fn srgb_encode(linear: f32) -> f32 {
-    if linear.is_nan() || linear <= 0.0 {
-        return 0.0;
-    }
-    if linear >= 1.0 {
-        return 1.0;
-    }
-    if linear <= 0.003_130_8 {
-        12.92 * linear
-    } else {
-        1.055 * linear.powf(1.0 / 2.4) - 0.055
-    }
-}
-
 /// One linear channel value (already scaled by the exposure) to an 8-bit sRGB code value.
 pub fn channel_to_srgb8(linear: f32) -> u8 {
     // `as u8` saturates, and both functions above already map into [0, 1].
@@ -46,7 +31,7 @@ pub fn channel_to_srgb8(linear: f32) -> u8 {
 }
 
 /// Tone-map a frame for display: multiply by `exposure`, apply [`filmic`] per channel, then
-/// [`srgb_encode`], rounding to 8 bits. NaN and negative values map to 0, `+inf` to 255.
+/// [`srgb_encode`](crate::math::color::srgb_encode), rounding to 8 bits. NaN and negative values map to 0, `+inf` to 255.
 pub fn to_srgb8(img: &HdrImage, exposure: f64) -> Vec<[u8; 3]> {
     let exposure = exposure as f32;
     img.data

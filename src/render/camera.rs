@@ -3,8 +3,8 @@
 //! axes, so every frame images one 3D slice of the 4D world.
 
 use crate::check::Camera;
-use crate::check::value::Plane;
-use crate::ir::lower::rotation;
+use crate::math::Plane;
+use crate::math::plane::rotate;
 use glam::DVec4;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,16 +23,8 @@ impl FrameCamera {
         let from = DVec4::from_array(camera.from);
         let to = DVec4::from_array(camera.to);
         // Each rotation turns the axes in order, the first applied first.
-        let axes = [DVec4::X, DVec4::Y, DVec4::Z, DVec4::W].map(|mut v| {
-            for &(plane, angle) in look {
-                let m = rotation(plane, angle);
-                let a = v.to_array();
-                v = DVec4::from_array(std::array::from_fn(|r| {
-                    (0..4).map(|c| m[r][c] * a[c]).sum::<f64>()
-                }));
-            }
-            v
-        });
+        let axes = [DVec4::X, DVec4::Y, DVec4::Z, DVec4::W]
+            .map(|v| DVec4::from_array(rotate(v.to_array(), look.iter().copied())));
         FrameCamera {
             position: from + (to - from) * t,
             axes,

@@ -10,7 +10,7 @@ use crate::check::value::{
     DEP_N, DEP_P, FieldOp, Fields, Material, MaterialKind, Plane, Shape, ShapeKind, Value,
 };
 use crate::ir::eval::Reference;
-use crate::ir::lower::rotation;
+use crate::math::plane::rotate;
 use crate::ir::{Graph, Id, K, Node, SceneIr, Un, Var, opt};
 use crate::vm::{Program, Tape};
 use glam::{DVec3, DVec4};
@@ -313,13 +313,8 @@ impl LightPlans {
                 match place {
                     Place::Translate(o) => center += DVec4::from_array(o.map(get)),
                     Place::Rotate(steps) => {
-                        for &(plane, a) in steps {
-                            let m = rotation(plane, get(a));
-                            let c = center.to_array();
-                            center = DVec4::from_array(std::array::from_fn(|r| {
-                                (0..4).map(|k| m[r][k] * c[k]).sum::<f64>()
-                            }));
-                        }
+                        let steps = steps.iter().map(|&(plane, a)| (plane, get(a)));
+                        center = DVec4::from_array(rotate(center.to_array(), steps));
                     }
                     Place::Scale(k) => {
                         let k = get(*k);

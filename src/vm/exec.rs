@@ -3,7 +3,7 @@
 //! code runs one point (`N = 1`) and forward-mode derivatives (`T = Dual`).
 
 use super::tape::{Instr, Tape};
-use crate::ir::eval::{self, Real};
+use crate::math::kernel::{self as eval, Real};
 use crate::ir::{Bin, Un};
 
 /// Registers of one packet.

@@ -2,7 +2,7 @@
 //! with respect to x, y, z, w, and the interpreter runs on it unchanged, so a normal costs one
 //! pass instead of eight extra evaluations.
 
-use crate::ir::eval::Real;
+use crate::math::kernel::Real;
 use std::cmp::Ordering;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 

@@ -2,7 +2,7 @@
 //! for pruning min/max branches and skipping empty space per tile.
 
 use super::tape::{INPUTS, Instr, Tape};
-use crate::ir::eval;
+use crate::math::kernel as eval;
 use crate::ir::{Bin, Un};
 
 /// A closed interval `lo..=hi`.
