@@ -255,7 +255,7 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
 }
 
 /// `--costs`: the cost curves, printed and written as costs.csv and costs.md.
-fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> ExitCode {
+fn run_costs(args: &BenchArgs, scene: &hyperslice::scene::Scene, out: &Path) -> ExitCode {
     let mut opts = if args.quick {
         CostOptions::quick()
     } else {

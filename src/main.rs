@@ -1,12 +1,13 @@
 //! The `hyperslice` command line.
 
 use clap::{Parser, Subcommand, ValueEnum};
-use hyperslice::{Compilation, vm};
+use hyperslice::{At, Compilation};
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 mod bench_command;
+mod compile_command;
 mod render_command;
 
 #[derive(Parser)]
@@ -42,25 +43,8 @@ enum Command {
     /// Measure speed against accuracy: a reference render, then a sweep of settings, each
     /// timed and compared with it; writes a table, CSV and a plot.
     Bench(bench_command::BenchArgs),
-    /// Compile a scene and print one stage of it.
-    Compile {
-        file: PathBuf,
-        /// The stage to print.
-        #[arg(long, default_value = "scene")]
-        emit: Emit,
-    },
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum Emit {
-    /// The syntax tree.
-    Ast,
-    /// The typed, constant-evaluated scene.
-    Scene,
-    /// The optimised SDF IR.
-    Ir,
-    /// The bytecode tapes.
-    Bytecode,
+    /// Compile a scene and print one stage of it, write it to a file, or check it against one.
+    Compile(compile_command::CompileArgs),
 }
 
 fn main() -> ExitCode {
@@ -82,7 +66,9 @@ fn main() -> ExitCode {
                     failed = true;
                 } else if let Some(scene) = &c.scene {
                     let warnings = c.diagnostics.len();
-                    let tape = vm::Program::new(scene, None).scene;
+                    let Some(tape) = c.program(At::default()).map(|p| p.scene) else {
+                        continue;
+                    };
                     eprintln!(
                         "{}: ok ({} object{}, {} frame{}, scene tape {} ops in {} registers{})",
                         file.display(),
@@ -111,20 +97,6 @@ fn main() -> ExitCode {
         }
         Command::Render(args) => render_command::run(args, color),
         Command::Bench(args) => bench_command::run(args, color),
-        Command::Compile { file, emit } => {
-            let c = Compilation::from_path(&file);
-            eprint!("{}", c.render_diagnostics(color));
-            match emit {
-                Emit::Ast => print!("{}", c.emit_ast()),
-                Emit::Scene => print!("{}", c.emit_scene().unwrap_or_default()),
-                Emit::Ir => print!("{}", c.emit_ir().unwrap_or_default()),
-                Emit::Bytecode => print!("{}", c.emit_bytecode().unwrap_or_default()),
-            }
-            if c.has_errors() {
-                ExitCode::FAILURE
-            } else {
-                ExitCode::SUCCESS
-            }
-        }
+        Command::Compile(args) => compile_command::run(args, color),
     }
 }

@@ -3,10 +3,10 @@
 
 use clap::Args;
 use hyperslice::Compilation;
-use hyperslice::check::{Denoise, Quality, RenderSettings};
 use hyperslice::output::{self, OutputSettings};
 use hyperslice::render::driver::{self, Options};
 use hyperslice::render::sampler::SamplerKind;
+use hyperslice::scene::{Denoise, Quality, RenderSettings};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -723,7 +723,7 @@ fn filter_none_is_bit_identical() {
 
 #[test]
 fn filter_from_scene_setting() {
-    use hyperslice::check::Denoise;
+    use hyperslice::scene::Denoise;
     assert_eq!(Filter::from(Denoise::None), Filter::None);
     assert_eq!(Filter::from(Denoise::Median), Filter::Median);
     assert_eq!(Filter::from(Denoise::Atrous), Filter::Atrous);

@@ -16,8 +16,9 @@ mod common;
 use common::*;
 use glam::{DVec3, DVec4};
 use hyperslice::Compilation;
+use hyperslice::compile::Compiled;
 use hyperslice::render::driver::{Options, Rendered};
-use hyperslice::render::frame::Prepared;
+use hyperslice::render::frame::{Features, FrameScene};
 use hyperslice::render::lights::{
     ball_pdf, cap_area, cap_integral, cone_half_angle, sample_ball, sample_cone_theta,
 };
@@ -213,7 +214,7 @@ fn cone_theta_inverts_its_cdf_at_every_size() {
 // ---------------------------------------------------------------------------------------------
 // Which objects are lights.
 
-fn scene_of(src: &str) -> hyperslice::check::Scene {
+fn scene_of(src: &str) -> hyperslice::scene::Scene {
     let c = Compilation::from_source("test.4ds", src);
     assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
     c.scene.expect("a scene")
@@ -234,9 +235,10 @@ fn spherical_lights_are_recognised_and_placed_per_frame() {
          object shell { shape = hypersphere(0.5) |> onion(0.1) material = light() }
          object dark { shape = hypersphere(0.2) |> translate([-3, 0, 0, 0]) material = light(intensity: 0) }",
     );
-    let prepared = Prepared::new(&scene);
+    let compiled = Compiled::new(&scene);
+    let features = Features::of(&compiled);
     for t in [0.0, 0.5, 1.0] {
-        let fs = prepared.frame(t);
+        let fs = FrameScene::new(&scene, &compiled, features, t);
         let lights = fs.lights.lights();
         let objects: Vec<u32> = lights.iter().map(|l| l.object).collect();
         assert_eq!(objects, vec![1, 2], "t = {t}");

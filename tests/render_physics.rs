@@ -427,8 +427,8 @@ fn tiny_and_very_wide_images_and_single_frames() {
             w.parse::<usize>().unwrap() * h.parse::<usize>().unwrap()
         );
     }
-    assert_eq!(driver::frame_time(0, 1), 0.0);
-    assert_eq!(driver::frame_time(4, 5), 1.0);
+    assert_eq!(hyperslice::compile::frame_time(0, 1), 0.0);
+    assert_eq!(hyperslice::compile::frame_time(4, 5), 1.0);
 }
 
 // ---- Progressive and adaptive rendering ----------------------------------------------------

@@ -101,8 +101,8 @@ fn check_valid(path: &Path, with_ast: bool, scene_name: &str) {
             insta::assert_snapshot!("ast", c.emit_ast());
         }
         insta::assert_snapshot!(scene_name, scene);
-        insta::assert_snapshot!(format!("{scene_name}_ir"), c.emit_ir().unwrap_or_default());
-        insta::assert_snapshot!(format!("{scene_name}_bytecode"), c.emit_bytecode().unwrap_or_default());
+        insta::assert_snapshot!(format!("{scene_name}_ir"), c.emit_ir(hyperslice::At::default()).unwrap_or_default());
+        insta::assert_snapshot!(format!("{scene_name}_bytecode"), c.emit_bytecode(hyperslice::At::default()).unwrap_or_default());
         if !warnings.is_empty() {
             insta::assert_snapshot!("warnings", warnings);
         }

@@ -2,8 +2,8 @@
 //! interpolation, a quick sweep end to end through the library, and the command line.
 
 use hyperslice::Compilation;
-use hyperslice::check::Scene;
 use hyperslice::render::sampler::SamplerKind;
+use hyperslice::scene::Scene;
 use hyperslice::sweep::costs::{self, CostOptions, CostPoint, Knob};
 use hyperslice::sweep::{
     self, Family, Reach, SweepOptions, pareto_front, plot, report, time_to_error,
@@ -105,7 +105,7 @@ fn plan_covers_every_family_and_the_reference_outsamples_it() {
     // Only the denoiser families denoise, and only the plain family turns light sampling off.
     for c in &configs {
         assert_eq!(
-            c.denoise != hyperslice::check::Denoise::None,
+            c.denoise != hyperslice::scene::Denoise::None,
             matches!(c.family, Family::Median | Family::Atrous),
             "{}",
             c.label

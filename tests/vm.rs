@@ -4,9 +4,9 @@
 //! contain every value; and every primitive and operation must be a distance bound.
 
 use hyperslice::Compilation;
-use hyperslice::check::Scene;
 use hyperslice::ir;
 use hyperslice::ir::eval::{Reference, vars};
+use hyperslice::scene::Scene;
 use hyperslice::vm::interval::{self, I};
 use hyperslice::vm::{self, Dual, LANES, Program, Regs, Tape};
 use rand::{Rng, SeedableRng};
@@ -76,7 +76,7 @@ fn optimised_bytecode_matches_the_plain_ir() {
     for file in scene_files() {
         let scene = compile_file(&file);
         let raw = ir::lower(&scene);
-        let prog = Program::from_ir(&raw, None);
+        let prog = hyperslice::compile::program(&raw, None);
         let roots = raw.roots();
         let mut reference = Reference::new(&raw.graph, &roots);
         let mut one = Regs::<f32, 1>::new(&prog.scene);
@@ -141,7 +141,7 @@ fn got_nearest(prog: &Program, regs: &mut Regs<f32, 1>, p: [f64; 4], n: [f64; 4]
 fn batched_and_single_point_paths_agree_exactly() {
     let mut rng = Pcg64Mcg::seed_from_u64(2);
     for file in scene_files() {
-        let prog = Program::new(&compile_file(&file), None);
+        let prog = hyperslice::compile::Compiled::new(&compile_file(&file)).program(None);
         let n = 1000;
         let pts: Vec<[f32; 4]> = (0..n).map(|_| to32(random_point(&mut rng, 5.0))).collect();
         let soa: [Vec<f32>; 4] = std::array::from_fn(|a| pts.iter().map(|p| p[a]).collect());
@@ -181,7 +181,7 @@ fn gradients_match_central_differences() {
     for file in scene_files() {
         let scene = compile_file(&file);
         let raw = ir::lower(&scene);
-        let prog = Program::from_ir(&raw, None);
+        let prog = hyperslice::compile::program(&raw, None);
         for (o, tapes) in raw.objects.iter().zip(&prog.objects) {
             let mut reference = Reference::new(&raw.graph, &[o.distance]);
             let mut f = |p: [f64; 4]| {
@@ -230,7 +230,7 @@ fn gradients_match_central_differences() {
 fn interval_bounds_contain_every_value() {
     let mut rng = Pcg64Mcg::seed_from_u64(4);
     for file in scene_files() {
-        let prog = Program::new(&compile_file(&file), None);
+        let prog = hyperslice::compile::Compiled::new(&compile_file(&file)).program(None);
         let mut one = Regs::<f32, 1>::new(&prog.scene);
         for tape in prog.tapes() {
             for _ in 0..40 {
@@ -268,7 +268,7 @@ fn interval_bounds_contain_every_value() {
 #[test]
 fn register_allocation_is_sound() {
     for file in scene_files() {
-        let prog = Program::new(&compile_file(&file), None);
+        let prog = hyperslice::compile::Compiled::new(&compile_file(&file)).program(None);
         for tape in prog.tapes() {
             for ins in &tape.code {
                 let (r, w) = (ins.reads(), ins.writes());
@@ -405,7 +405,7 @@ fn every_primitive_and_operation_is_a_distance_bound() {
         };
         // The gradient of a distance bound never exceeds 1 in length, which catches a blend
         // that overshoots in a thin region random pairs rarely straddle.
-        let prog = Program::from_ir(&raw, None);
+        let prog = hyperslice::compile::program(&raw, None);
         let mut regs = Regs::<Dual, 1>::new(&prog.objects[0].distance);
         for _ in 0..3000 {
             let p = random_point(&mut rng, 2.5);
@@ -489,11 +489,11 @@ fn d4_decoder_finds_the_nearest_point_even_far_away() {
 #[test]
 fn frames_specialised_on_t_agree() {
     let scene = compile_file(&PathBuf::from("examples/tesseract.4ds"));
-    let free = Program::new(&scene, None);
+    let free = hyperslice::compile::Compiled::new(&scene).program(None);
     let mut rng = Pcg64Mcg::seed_from_u64(7);
     let mut one = Regs::<f32, 1>::new(&free.scene);
     for t in [0.0, 0.3, 1.0] {
-        let fixed = Program::new(&scene, Some(t));
+        let fixed = hyperslice::compile::Compiled::new(&scene).program(Some(t));
         assert!(fixed.scene.code.len() <= free.scene.code.len());
         assert!(!fixed.scene.inputs.contains(&hyperslice::ir::Var::T));
         for _ in 0..500 {
@@ -511,7 +511,7 @@ fn tapes_hold_only_what_their_roots_need() {
     let scene = compile_text(
         "object a { shape = hypersphere(1)  material = |p, n| diffuse(albedo: rgb(fract(p.x))) }",
     );
-    let prog = Program::new(&scene, None);
+    let prog = hyperslice::compile::Compiled::new(&scene).program(None);
     let tapes: Vec<&Tape> = prog.tapes().collect();
     assert_eq!(tapes[1].code.len(), 1, "{}", tapes[1]);
     assert!(

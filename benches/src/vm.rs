@@ -3,7 +3,7 @@
 //! 64 lanes) or at one point (the same interpreter with one lane).
 
 use hyperslice::Compilation;
-use hyperslice::vm::{self, LANES, Program, Regs, Tape};
+use hyperslice::vm::{self, LANES, Regs, Tape};
 
 pub struct VmScene {
     tape: Tape,
@@ -19,7 +19,9 @@ impl VmScene {
             panic!("{}", c.render_diagnostics(false));
         };
         // The scene tape with `t` folded in, as the renderer runs it per frame.
-        let tape = Program::new(scene, Some(0.0)).scene;
+        let tape = hyperslice::compile::Compiled::new(scene)
+            .program(Some(0.0))
+            .scene;
         VmScene {
             batch: Regs::new(&tape),
             one: Regs::new(&tape),

@@ -6,7 +6,6 @@
 use super::builtins;
 use super::ops;
 use super::suggest::did_you_mean;
-use super::types::Type;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
 use crate::math::color;
@@ -185,16 +184,20 @@ impl<'a> Checker<'a> {
         Value::Field(self.fields.push(op, ty.clone()), ty)
     }
 
-    /// Lift a constant or field into a field node.
+    /// Lift a constant or field into a field node. Only the types a field can hold are
+    /// lifted (the callers check); anything else becomes NaN.
     pub fn lift(&mut self, v: &Value) -> FieldId {
         match v {
             Value::Field(id, _) => *id,
-            other => self.fields.push(FieldOp::Const(other.clone()), other.ty()),
+            other => {
+                let c = other.to_const().unwrap_or(Const::Num(f64::NAN));
+                self.fields.push(FieldOp::Const(c), other.ty())
+            }
         }
     }
 
     pub fn deps(&self, v: &Value) -> u8 {
-        self.fields.deps(v)
+        deps(&self.fields, v)
     }
 
     /// Report when a value that must be known at compile time depends on p, n or t.
@@ -328,7 +331,6 @@ impl<'a> Checker<'a> {
                 params: params.clone(),
                 body: *body,
                 env: env.clone(),
-                span,
             })),
             Expr::Sdf { param, body } => {
                 let p = self.field(FieldOp::Input(Input::P), Type::Vec4);
@@ -338,8 +340,8 @@ impl<'a> Checker<'a> {
                 if !self.expect(&d, &Type::Num, body_span, "a distance function's result") {
                     return Value::Error;
                 }
-                let d = Value::Field(self.lift(&d), Type::Num);
-                builtins::make_shape(self, ShapeKind::Custom, vec![("distance", d)], vec![], span)
+                let distance = crate::scene::Param::Field(self.lift(&d));
+                builtins::make_shape(self, ShapeKind::Custom { distance }, span)
             }
             Expr::Block { lets, result } => {
                 let mut env = env.clone();
@@ -416,7 +418,7 @@ impl<'a> Checker<'a> {
         let mut candidates: Vec<&str> = env.names();
         let globals: Vec<String> = self.visible_globals(file);
         candidates.extend(globals.iter().map(String::as_str));
-        candidates.extend(builtins::NAMES.iter().copied());
+        candidates.extend(builtins::names().map(|n| -> &str { n }));
         let hint = did_you_mean(&name.name, candidates.iter().copied());
         let hint = hint.or_else(|| match name.name.as_str() {
             "p" | "n" => Some(format!(
@@ -470,7 +472,6 @@ impl<'a> Checker<'a> {
         let file = self.globals[g].file;
         let v = match &self.globals[g].kind {
             GlobalKind::Fn(def) => Value::Function(Rc::new(Function::User {
-                global: g,
                 file,
                 def: def.clone(),
             })),

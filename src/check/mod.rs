@@ -2,21 +2,25 @@
 //! ranges, and collects what depends on `p`, `n` or `t` as field expressions.
 
 mod builtins;
-pub mod eval;
-pub mod ops;
-pub mod scene;
-pub mod suggest;
-pub mod types;
-pub mod value;
+mod eval;
+mod ops;
+mod scene;
+mod suggest;
+pub(crate) mod value;
 
-pub use builtins::{bounds, cell_of, d4_nearest};
-pub use scene::{Camera, Denoise, Object, Quality, RenderSettings, Scene};
-
-use crate::Compilation;
 use crate::diagnostic::Diagnostic;
 use crate::source::{FileId, SourceMap, Span};
 use crate::syntax::{self, ast::Ast, ast::ItemKind};
 use std::path::{Path, PathBuf};
+
+/// What checking produced: the loaded sources, the diagnostics of every stage so far, the root
+/// file's syntax tree and, when there were no errors, the typed scene.
+pub struct Checked {
+    pub sources: SourceMap,
+    pub diagnostics: Vec<Diagnostic>,
+    pub ast: Ast,
+    pub scene: Option<crate::scene::Scene>,
+}
 
 /// Longest chain of imports, and most files in one compilation.
 const MAX_IMPORT_DEPTH: usize = 64;
@@ -24,11 +28,11 @@ const MAX_FILES: usize = 1000;
 /// Diagnostics beyond this many are summarised.
 const MAX_DIAGNOSTICS: usize = 100;
 
-pub fn compile_path(path: &Path) -> Compilation {
+pub fn compile_path(path: &Path) -> Checked {
     let mut loader = Loader::default();
     match loader.read(path, &path.display().to_string(), None) {
         Ok(root) => loader.finish(root),
-        Err(d) => Compilation {
+        Err(d) => Checked {
             sources: loader.sources,
             diagnostics: vec![d],
             ast: Ast::default(),
@@ -37,7 +41,7 @@ pub fn compile_path(path: &Path) -> Compilation {
     }
 }
 
-pub fn compile_source(name: &str, text: &str) -> Compilation {
+pub fn compile_source(name: &str, text: &str) -> Checked {
     let mut loader = Loader::default();
     let root = loader.sources.add(name, None, text);
     loader.finish(root)
@@ -188,7 +192,7 @@ impl Loader {
         }
     }
 
-    fn finish(mut self, root: FileId) -> Compilation {
+    fn finish(mut self, root: FileId) -> Checked {
         let root_path = self.sources.get(root).path.clone();
         let canon = root_path
             .as_ref()
@@ -221,7 +225,7 @@ impl Loader {
             );
         }
         let ast = std::mem::take(&mut self.asts[root.0 as usize]);
-        Compilation {
+        Checked {
             sources: self.sources,
             diagnostics: diags,
             ast,

@@ -3,9 +3,10 @@
 
 use super::eval::{Checker, article};
 use super::suggest::did_you_mean;
-use super::types::Type;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
+use crate::math::kernel::{bin, un};
+use crate::math::{Bin, Un};
 use crate::source::Span;
 use crate::syntax::ast::{BinOp, Ident, UnOp};
 use std::rc::Rc;
@@ -29,32 +30,23 @@ fn from_lanes(ty: &Type, xs: &[f64]) -> Value {
     }
 }
 
-fn is_numeric(t: &Type) -> bool {
-    matches!(t, Type::Num | Type::Angle | Type::Vec4 | Type::Color)
-}
-
-/// Floored modulo: the result has the sign of the divisor, so cell indices map into 0..m.
-pub fn floor_mod(a: f64, b: f64) -> f64 {
-    a - b * (a / b).floor()
-}
-
 /// The type of `a op b`, or why there is none.
 pub fn binary_type(op: BinOp, a: &Type, b: &Type) -> Result<Type, &'static str> {
     use Type::*;
     match op {
         BinOp::Add | BinOp::Sub => match (a, b) {
-            (x, y) if x == y && is_numeric(x) => Ok(x.clone()),
+            (x, y) if x == y && x.is_numeric() => Ok(x.clone()),
             (Angle, Num) | (Num, Angle) => Err("angle-num"),
             _ => Err(""),
         },
         BinOp::Mul => match (a, b) {
-            (Num, x) | (x, Num) if is_numeric(x) => Ok(x.clone()),
+            (Num, x) | (x, Num) if x.is_numeric() => Ok(x.clone()),
             (Vec4, Vec4) => Ok(Vec4),
             (Color, Color) => Ok(Color),
             _ => Err(""),
         },
         BinOp::Div => match (a, b) {
-            (x, Num) if is_numeric(x) => Ok(x.clone()),
+            (x, Num) if x.is_numeric() => Ok(x.clone()),
             (Vec4, Vec4) => Ok(Vec4),
             (Color, Color) => Ok(Color),
             (Angle, Angle) => Ok(Num),
@@ -109,14 +101,14 @@ pub fn const_binary(op: BinOp, a: &Value, b: &Value, ty: &Type) -> Value {
     };
     let n = x.len().max(y.len());
     let get = |v: &[f64], i: usize| if v.len() == 1 { v[0] } else { v[i] };
-    let f = |p: f64, q: f64| match op {
-        BinOp::Add => p + q,
-        BinOp::Sub => p - q,
-        BinOp::Mul => p * q,
-        BinOp::Div => p / q,
-        BinOp::Mod => floor_mod(p, q),
-        _ => f64::NAN,
+    let kernel = match op {
+        BinOp::Add => Bin::Add,
+        BinOp::Sub => Bin::Sub,
+        BinOp::Mul => Bin::Mul,
+        BinOp::Div => Bin::Div,
+        _ => Bin::Mod,
     };
+    let f = |p: f64, q: f64| bin(kernel, p, q);
     match op {
         BinOp::Lt => Value::Bool(x[0] < y[0]),
         BinOp::Le => Value::Bool(x[0] <= y[0]),
@@ -244,7 +236,7 @@ fn range(ck: &mut Checker, lo: f64, hi: f64, aspan: Span, bspan: Span, span: Spa
 pub fn unary(ck: &mut Checker, op: UnOp, v: Value, span: Span) -> Value {
     let ty = v.ty();
     let ok = match op {
-        UnOp::Neg => is_numeric(&ty),
+        UnOp::Neg => Type::is_numeric(&ty),
         UnOp::Not => ty == Type::Bool,
     };
     if v.is_error() {
@@ -465,140 +457,52 @@ pub fn select(
     ck.field(FieldOp::Select(cond, la, lb), ta)
 }
 
-impl MathFn {
-    pub fn from_name(name: &str) -> Option<MathFn> {
-        use MathFn::*;
-        Some(match name {
-            "sin" => Sin,
-            "cos" => Cos,
-            "tan" => Tan,
-            "asin" => Asin,
-            "acos" => Acos,
-            "atan" => Atan,
-            "atan2" => Atan2,
-            "sqrt" => Sqrt,
-            "abs" => Abs,
-            "floor" => Floor,
-            "ceil" => Ceil,
-            "round" => Round,
-            "fract" => Fract,
-            "sign" => Sign,
-            "exp" => Exp,
-            "log" => Log,
-            "pow" => Pow,
-            "min" => Min,
-            "max" => Max,
-            "clamp" => Clamp,
-            "mix" => Mix,
-            "length" => Length,
-            "dot" => Dot,
-            "normalize" => Normalize,
-            _ => return None,
-        })
-    }
-
-    pub fn params(self) -> &'static [&'static str] {
-        use MathFn::*;
-        match self {
-            Sin | Cos | Tan => &["angle"],
-            Atan2 => &["y", "x"],
-            Pow => &["x", "y"],
-            Min | Max | Dot => &["a", "b"],
-            Clamp => &["x", "lo", "hi"],
-            Mix => &["a", "b", "k"],
-            Length | Normalize => &["v"],
-            _ => &["x"],
+/// Evaluate a maths builtin on constants of the right types, with the kernels the renderer uses.
+fn apply(f: MathFn, args: &[Value], ty: &Type) -> Value {
+    use MathFn::*;
+    let l: Vec<Vec<f64>> = args.iter().map(|a| lanes(a).unwrap_or_default()).collect();
+    let x = l[0][0];
+    let map1 = |op: Un| from_lanes(ty, &l[0].iter().map(|x| un(op, *x)).collect::<Vec<_>>());
+    let zip = |f: &dyn Fn(f64, f64) -> f64| {
+        let out: Vec<f64> = l[0].iter().zip(&l[1]).map(|(a, b)| f(*a, *b)).collect();
+        from_lanes(ty, &out)
+    };
+    let length = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+    match f {
+        Sin => Value::Num(un(Un::Sin, x)),
+        Cos => Value::Num(un(Un::Cos, x)),
+        Tan => Value::Num(un(Un::Tan, x)),
+        Asin => Value::Angle(un(Un::Asin, x)),
+        Acos => Value::Angle(un(Un::Acos, x)),
+        Atan => Value::Angle(un(Un::Atan, x)),
+        Atan2 => Value::Angle(bin(Bin::Atan2, x, l[1][0])),
+        Sqrt => map1(Un::Sqrt),
+        Exp => map1(Un::Exp),
+        Log => map1(Un::Ln),
+        Abs => map1(Un::Abs),
+        Floor => map1(Un::Floor),
+        Ceil => map1(Un::Ceil),
+        Round => map1(Un::Round),
+        Fract => map1(Un::Fract),
+        Sign => map1(Un::Sign),
+        Pow => Value::Num(bin(Bin::Pow, x, l[1][0])),
+        Min => zip(&|a, b| bin(Bin::Min, a, b)),
+        Max => zip(&|a, b| bin(Bin::Max, a, b)),
+        Clamp => {
+            let out: Vec<f64> = (0..l[0].len())
+                .map(|i| bin(Bin::Min, bin(Bin::Max, l[0][i], l[1][i]), l[2][i]))
+                .collect();
+            from_lanes(ty, &out)
         }
-    }
-
-    /// Expected types of the arguments given the first one's type, and the result type.
-    pub fn signature(self, first: &Type) -> (Vec<Type>, Type) {
-        use MathFn::*;
-        use Type as T;
-        let x = if is_numeric(first) {
-            first.clone()
-        } else {
-            T::Num
-        };
-        match self {
-            Sin | Cos | Tan => (vec![T::Angle], T::Num),
-            Asin | Acos | Atan => (vec![T::Num], T::Angle),
-            Atan2 => (vec![T::Num, T::Num], T::Angle),
-            Sqrt | Exp | Log => {
-                let x = if *first == T::Vec4 { T::Vec4 } else { T::Num };
-                (vec![x.clone()], x)
-            }
-            Pow => (vec![T::Num, T::Num], T::Num),
-            Abs | Floor | Ceil | Round | Fract | Sign => (vec![x.clone()], x),
-            Min | Max => (vec![x.clone(), x.clone()], x),
-            Clamp => (vec![x.clone(), x.clone(), x.clone()], x),
-            Mix => (vec![x.clone(), x.clone(), T::Num], x),
-            Length => (vec![T::Vec4], T::Num),
-            Dot => (vec![T::Vec4, T::Vec4], T::Num),
-            Normalize => (vec![T::Vec4], T::Vec4),
+        Mix => {
+            let k = l[2][0];
+            zip(&|a, b| a + (b - a) * k)
         }
-    }
-
-    /// Evaluate on constants of the right types.
-    pub fn apply(self, args: &[Value], ty: &Type) -> Value {
-        use MathFn::*;
-        let l: Vec<Vec<f64>> = args.iter().map(|a| lanes(a).unwrap_or_default()).collect();
-        let map1 =
-            |f: fn(f64) -> f64| from_lanes(ty, &l[0].iter().map(|x| f(*x)).collect::<Vec<_>>());
-        let zip = |f: &dyn Fn(f64, f64) -> f64| {
-            from_lanes(
-                ty,
-                &l[0]
-                    .iter()
-                    .zip(&l[1])
-                    .map(|(a, b)| f(*a, *b))
-                    .collect::<Vec<_>>(),
-            )
-        };
-        match self {
-            Sin => Value::Num(l[0][0].sin()),
-            Cos => Value::Num(l[0][0].cos()),
-            Tan => Value::Num(l[0][0].tan()),
-            Asin => Value::Angle(l[0][0].asin()),
-            Acos => Value::Angle(l[0][0].acos()),
-            Atan => Value::Angle(l[0][0].atan()),
-            Atan2 => Value::Angle(l[0][0].atan2(l[1][0])),
-            Sqrt => map1(f64::sqrt),
-            Exp => map1(f64::exp),
-            Log => map1(f64::ln),
-            Abs => map1(f64::abs),
-            Floor => map1(f64::floor),
-            Ceil => map1(f64::ceil),
-            Round => map1(f64::round),
-            Fract => map1(|x| x - x.floor()),
-            Sign => map1(|x| {
-                if x > 0.0 {
-                    1.0
-                } else if x < 0.0 {
-                    -1.0
-                } else {
-                    0.0
-                }
-            }),
-            Pow => Value::Num(l[0][0].powf(l[1][0])),
-            Min => zip(&f64::min),
-            Max => zip(&f64::max),
-            Clamp => from_lanes(
-                ty,
-                &(0..l[0].len())
-                    .map(|i| l[0][i].max(l[1][i]).min(l[2][i]))
-                    .collect::<Vec<_>>(),
-            ),
-            Mix => {
-                let k = l[2][0];
-                zip(&|a, b| a + (b - a) * k)
-            }
-            Length => Value::Num(l[0].iter().map(|x| x * x).sum::<f64>().sqrt()),
-            Dot => Value::Num(l[0].iter().zip(&l[1]).map(|(a, b)| a * b).sum()),
-            Normalize => {
-                let n = l[0].iter().map(|x| x * x).sum::<f64>().sqrt();
-                from_lanes(ty, &l[0].iter().map(|x| x / n).collect::<Vec<_>>())
-            }
+        Length => Value::Num(length(&l[0])),
+        Dot => Value::Num(l[0].iter().zip(&l[1]).map(|(a, b)| a * b).sum()),
+        Normalize => {
+            let n = length(&l[0]);
+            from_lanes(ty, &l[0].iter().map(|x| x / n).collect::<Vec<_>>())
         }
     }
 }
@@ -639,7 +543,7 @@ pub fn math(
         let ids = vals.iter().map(|v| ck.lift(v)).collect();
         return ck.field(FieldOp::Math(f, ids), ret);
     }
-    let out = f.apply(&vals, &ret);
+    let out = apply(f, &vals, &ret);
     if lanes(&out).is_some_and(|l| l.iter().any(|x| x.is_nan())) {
         return ck.error(
             Diagnostic::error("E0301", format!("`{name}` is undefined here"))

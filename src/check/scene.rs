@@ -1,113 +1,16 @@
-//! The typed scene: what the checker hands to lowering and rendering, with every default filled
-//! in, and its readable text form (`--emit scene`).
+//! The scene builder: reads the root file's `render`, `camera`, `sky`, `medium` and `object`
+//! items and fills in the typed scene, reporting unknown, repeated and out-of-range settings.
 
-use super::builtins;
 use super::eval::{Checker, duplicate};
 use super::suggest::did_you_mean;
-use super::types::Type;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
+use crate::scene::print::round9;
+use crate::scene::{Camera, Denoise, Object, Quality, RenderSettings, Scene};
 use crate::source::{FileId, Span};
 use crate::syntax::ast::*;
 use std::collections::HashMap;
-use std::fmt::{self, Write};
 use std::rc::Rc;
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Denoise {
-    None,
-    Median,
-    Atrous,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Quality {
-    Draft,
-    Preview,
-    Final,
-    Custom,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct RenderSettings {
-    pub width: u32,
-    pub height: u32,
-    pub frames: u32,
-    pub spp: u32,
-    pub bounces: u32,
-    pub epsilon: f64,
-    pub max_steps: u32,
-    pub seed: u64,
-    pub denoise: Denoise,
-    pub quality: Quality,
-    pub fps: f64,
-    pub exposure: f64,
-    /// Worker threads; 0 uses every core.
-    pub threads: u32,
-}
-
-impl Default for RenderSettings {
-    fn default() -> Self {
-        RenderSettings {
-            width: 320,
-            height: 240,
-            frames: 1,
-            spp: 16,
-            bounces: 8,
-            epsilon: 1e-4,
-            max_steps: 1000,
-            seed: 0,
-            denoise: Denoise::Atrous,
-            quality: Quality::Custom,
-            fps: 20.0,
-            exposure: 1.0,
-            threads: 0,
-        }
-    }
-}
-
-impl Quality {
-    /// The preset's samples, bounces, marching epsilon and step limit.
-    pub fn apply(self, r: &mut RenderSettings) {
-        let (spp, bounces, eps, steps) = match self {
-            Quality::Draft => (4, 4, 1e-3, 200),
-            Quality::Preview => (16, 6, 1e-4, 1000),
-            Quality::Final => (256, 12, 1e-5, 5000),
-            Quality::Custom => return,
-        };
-        (r.spp, r.bounces, r.epsilon, r.max_steps) = (spp, bounces, eps, steps);
-        r.quality = self;
-    }
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Camera {
-    pub from: [f64; 4],
-    pub to: [f64; 4],
-    /// Orientation: plane rotations, whose angles may depend on `t`.
-    pub look: Vec<(Plane, Value)>,
-    /// Horizontal field of view in radians.
-    pub fov: f64,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Object {
-    pub name: String,
-    pub span: Span,
-    pub shape: Rc<Shape>,
-    /// A material, or a field of type material over `p`, `n` and `t`.
-    pub material: Value,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-pub struct Scene {
-    pub render: RenderSettings,
-    pub camera: Camera,
-    pub sky: [f64; 3],
-    pub medium: Rc<Material>,
-    pub objects: Vec<Object>,
-    pub fields: Fields,
-}
 
 const RENDER_KEYS: [&str; 12] = [
     "size",
@@ -278,10 +181,7 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
         fov: 60f64.to_radians(),
     };
     let mut sky = [0.0; 3];
-    let mut medium = Rc::new(Material {
-        kind: MaterialKind::Air,
-        params: vec![],
-    });
+    let mut medium = Material::Air;
     let mut objects: Vec<Object> = vec![];
     let mut seen_blocks: HashMap<&str, Span> = HashMap::new();
     let mut object_names: HashMap<String, Span> = HashMap::new();
@@ -381,11 +281,7 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                     render.exposure = x;
                 }
                 if let Some(d) = s.get("denoise") {
-                    let opts = [
-                        ("none", Denoise::None),
-                        ("median", Denoise::Median),
-                        ("atrous", Denoise::Atrous),
-                    ];
+                    let opts = Denoise::ALL.map(|d| (d.name(), d));
                     if let Some(d) = choice(ck, d, "denoiser", &opts) {
                         render.denoise = d;
                     }
@@ -457,9 +353,9 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                 {
                     match v {
                         Value::Material(m)
-                            if matches!(m.kind, MaterialKind::Fog | MaterialKind::Air) =>
+                            if matches!(m.kind(), MaterialKind::Fog | MaterialKind::Air) =>
                         {
-                            medium = m
+                            medium = (*m).clone()
                         }
                         Value::Material(m) => {
                             ck.error(
@@ -467,7 +363,7 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                                     "E0201",
                                     format!(
                                         "the medium must be `fog(...)` or `air`, not `{}`",
-                                        m.kind.name()
+                                        m.kind().name()
                                     ),
                                 )
                                 .label(span, "this material is a surface, not a volume")
@@ -539,13 +435,7 @@ fn object(
         return None;
     };
     let material = match s.get("material") {
-        None => Value::Material(Rc::new(Material {
-            kind: MaterialKind::Diffuse,
-            params: vec![
-                ("albedo", Value::Color([0.8; 3])),
-                ("emission", Value::Color([0.0; 3])),
-            ],
-        })),
+        None => Value::Material(Rc::new(Material::with_defaults(MaterialKind::Diffuse))),
         Some((Value::Function(f), mspan)) => {
             let p = ck.field(FieldOp::Input(Input::P), Type::Vec4);
             let n = ck.field(FieldOp::Input(Input::N), Type::Vec4);
@@ -569,8 +459,8 @@ fn object(
             v.clone()
         }
     };
-    if matches!(&material, Value::Material(m) if m.kind == MaterialKind::Air)
-        && builtins::bounds(&shape).is_some()
+    if matches!(&material, Value::Material(m) if m.kind() == MaterialKind::Air)
+        && shape.bounds().is_some()
     {
         // An object of clear air with no medium cannot be seen; say so rather than render nothing.
         ck.diags.push(
@@ -582,270 +472,15 @@ fn object(
                 .help("use `fog(...)` for a visible volume, or remove the object"),
         );
     }
+    let material = match material {
+        Value::Material(m) => crate::scene::Param::Const(m),
+        Value::Field(id, _) => crate::scene::Param::Field(id),
+        _ => return None,
+    };
     Some(Object {
         name: name.name.clone(),
         span,
         shape,
         material,
     })
-}
-
-fn round9(x: f64) -> f64 {
-    (x * 1e9).round() / 1e9
-}
-
-/// Prints values, numbering the field nodes they reach.
-struct Printer<'a> {
-    fields: &'a Fields,
-    ids: HashMap<FieldId, usize>,
-    order: Vec<FieldId>,
-}
-
-impl Printer<'_> {
-    fn field(&mut self, id: FieldId) -> String {
-        if let Some(k) = self.ids.get(&id) {
-            return format!("%{k}");
-        }
-        // Constants read better inline than as numbered nodes.
-        if let FieldOp::Const(v) = &self.fields.get(id).op {
-            let v = v.clone();
-            return self.value(&v);
-        }
-        // Children first, so the listing reads top to bottom.
-        let node = self.fields.get(id).clone();
-        match &node.op {
-            FieldOp::Input(_) | FieldOp::Const(_) => {}
-            FieldOp::Unary(_, a) | FieldOp::Component(a, _) | FieldOp::Cell(_, a) => {
-                self.field(*a);
-            }
-            FieldOp::Binary(_, a, b) => {
-                self.field(*a);
-                self.field(*b);
-            }
-            FieldOp::Math(_, xs) => xs.iter().for_each(|x| {
-                self.field(*x);
-            }),
-            FieldOp::MakeVec4(xs) => xs.iter().for_each(|x| {
-                self.field(*x);
-            }),
-            FieldOp::MakeColor(xs) => xs.iter().for_each(|x| {
-                self.field(*x);
-            }),
-            FieldOp::Select(c, a, b) => {
-                for x in [c, a, b] {
-                    self.field(*x);
-                }
-            }
-            FieldOp::Index(xs, i) => {
-                xs.iter().for_each(|x| {
-                    self.field(*x);
-                });
-                self.field(*i);
-            }
-        }
-        let k = self.order.len();
-        self.ids.insert(id, k);
-        self.order.push(id);
-        format!("%{k}")
-    }
-
-    fn line(&mut self, id: FieldId) -> String {
-        let node = self.fields.get(id).clone();
-        let f = |p: &mut Self, x: &FieldId| p.field(*x);
-        let body = match &node.op {
-            FieldOp::Input(Input::P) => "p".to_string(),
-            FieldOp::Input(Input::N) => "n".to_string(),
-            FieldOp::Input(Input::T) => "t".to_string(),
-            FieldOp::Const(v) => self.value(v),
-            FieldOp::Unary(op, a) => {
-                format!("{}{}", if *op == UnOp::Neg { "-" } else { "!" }, f(self, a))
-            }
-            FieldOp::Binary(op, a, b) => format!("{} {} {}", f(self, a), op.symbol(), f(self, b)),
-            FieldOp::Math(m, xs) => {
-                let args: Vec<String> = xs.iter().map(|x| f(self, x)).collect();
-                format!("{}({})", format!("{m:?}").to_lowercase(), args.join(", "))
-            }
-            FieldOp::Component(a, i) => {
-                format!("{}.{}", f(self, a), ["x", "y", "z", "w"][*i as usize])
-            }
-            FieldOp::MakeVec4(xs) => format!(
-                "[{}]",
-                xs.iter().map(|x| f(self, x)).collect::<Vec<_>>().join(", ")
-            ),
-            FieldOp::MakeColor(xs) => format!(
-                "rgb({})",
-                xs.iter().map(|x| f(self, x)).collect::<Vec<_>>().join(", ")
-            ),
-            FieldOp::Select(c, a, b) => {
-                format!("if {} then {} else {}", f(self, c), f(self, a), f(self, b))
-            }
-            FieldOp::Index(xs, i) => {
-                let items: Vec<String> = xs.iter().map(|x| f(self, x)).collect();
-                format!("[{}][{}]", items.join(", "), f(self, i))
-            }
-            FieldOp::Cell(l, a) => format!("cell({}, {})", lattice(l), f(self, a)),
-        };
-        format!("{body}: {}", node.ty)
-    }
-
-    fn value(&mut self, v: &Value) -> String {
-        match v {
-            Value::Num(x) => Num(*x).to_string(),
-            Value::Angle(a) => format!("{}deg", Num(round9(a.to_degrees()))),
-            Value::Bool(b) => b.to_string(),
-            Value::Vec4(a) => format!(
-                "[{}]",
-                a.iter()
-                    .map(|x| Num(*x).to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            Value::Color(c) => format!(
-                "rgb({})",
-                c.iter()
-                    .map(|x| Num(round9(*x)).to_string())
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            Value::Str(s) => format!("{s:?}"),
-            Value::Size(w, h) => format!("{} x {}", Num(*w), Num(*h)),
-            Value::Plane(p) => p.name().to_string(),
-            Value::Rotation(r) => self.rotation(r),
-            Value::Lattice(l) => lattice(l),
-            Value::Material(m) => self.material(m),
-            Value::Shape(s) => {
-                let mut out = String::new();
-                self.shape(s, 0, &mut out);
-                out
-            }
-            Value::List(xs) => format!(
-                "[{}]",
-                xs.iter()
-                    .map(|x| self.value(x))
-                    .collect::<Vec<_>>()
-                    .join(", ")
-            ),
-            Value::Function(_) => "<function>".to_string(),
-            Value::Field(id, _) => self.field(*id),
-            Value::Error => "<error>".to_string(),
-        }
-    }
-
-    fn rotation(&mut self, r: &[(Plane, Value)]) -> String {
-        if r.is_empty() {
-            return "identity".to_string();
-        }
-        r.iter()
-            .map(|(p, a)| format!("rotate({}, {})", p.name(), self.value(a)))
-            .collect::<Vec<_>>()
-            .join(" |> ")
-    }
-
-    fn material(&mut self, m: &Material) -> String {
-        if m.params.is_empty() {
-            return m.kind.name().to_string();
-        }
-        let ps: Vec<String> = m
-            .params
-            .iter()
-            .map(|(n, v)| format!("{n}: {}", self.value(v)))
-            .collect();
-        format!("{}({})", m.kind.name(), ps.join(", "))
-    }
-
-    fn shape(&mut self, s: &Shape, indent: usize, out: &mut String) {
-        let ps: Vec<String> = s
-            .params
-            .iter()
-            .map(|(n, v)| format!("{n}: {}", self.value(v)))
-            .collect();
-        let _ = writeln!(
-            out,
-            "{:w$}{}({})",
-            "",
-            s.kind.name(),
-            ps.join(", "),
-            w = indent * 2
-        );
-        for c in &s.children {
-            self.shape(c, indent + 1, out);
-        }
-    }
-}
-
-fn lattice(l: &Lattice) -> String {
-    let v = |a: &[f64; 4]| {
-        format!(
-            "[{}]",
-            a.iter()
-                .map(|x| Num(*x).to_string())
-                .collect::<Vec<_>>()
-                .join(", ")
-        )
-    };
-    match l {
-        Lattice::D4 { scale } => format!("d4(scale: {})", Num(*scale)),
-        Lattice::Grid { spacing, limit } => {
-            format!("grid(spacing: {}, limit: {})", v(spacing), v(limit))
-        }
-    }
-}
-
-impl fmt::Display for Scene {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let r = &self.render;
-        let mut p = Printer {
-            fields: &self.fields,
-            ids: HashMap::new(),
-            order: vec![],
-        };
-        writeln!(f, "render")?;
-        writeln!(f, "  size {} x {}", r.width, r.height)?;
-        writeln!(
-            f,
-            "  frames {}  spp {}  bounces {}",
-            r.frames, r.spp, r.bounces
-        )?;
-        writeln!(
-            f,
-            "  epsilon {}  max_steps {}  seed {}",
-            Num(r.epsilon),
-            r.max_steps,
-            r.seed
-        )?;
-        writeln!(
-            f,
-            "  denoise {:?}  quality {:?}  fps {}  exposure {}",
-            r.denoise,
-            r.quality,
-            Num(r.fps),
-            Num(r.exposure)
-        )?;
-        let c = &self.camera;
-        writeln!(f, "camera")?;
-        writeln!(f, "  from {}", p.value(&Value::Vec4(c.from)))?;
-        writeln!(f, "  to {}", p.value(&Value::Vec4(c.to)))?;
-        writeln!(f, "  look {}", p.rotation(&c.look))?;
-        writeln!(f, "  fov {}deg", Num(round9(c.fov.to_degrees())))?;
-        writeln!(f, "sky {}", p.value(&Value::Color(self.sky)))?;
-        writeln!(f, "medium {}", p.material(&self.medium))?;
-        for o in &self.objects {
-            writeln!(f, "object {}", o.name)?;
-            let mut shape = String::new();
-            p.shape(&o.shape, 2, &mut shape);
-            writeln!(f, "  shape\n{}", shape.trim_end())?;
-            writeln!(f, "  material {}", p.value(&o.material))?;
-        }
-        if !p.order.is_empty() {
-            writeln!(f, "fields")?;
-            let mut i = 0;
-            while i < p.order.len() {
-                let id = p.order[i];
-                let line = p.line(id);
-                writeln!(f, "  %{i} = {line}")?;
-                i += 1;
-            }
-        }
-        Ok(())
-    }
 }

@@ -15,8 +15,8 @@
 pub mod atrous;
 pub mod median;
 
-use crate::check::Denoise;
 use crate::render::film::Film;
+use crate::scene::Denoise;
 
 pub use atrous::{AtrousOptions, Temporal};
 

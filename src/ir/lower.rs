@@ -3,13 +3,15 @@
 //! graph is the reference the optimised bytecode is tested against.
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
-use crate::check::Scene;
-use crate::check::value::{
-    FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn, Plane, Shape,
-    ShapeKind, Value,
+use crate::math::Plane;
+use crate::math::plane::rotation as rotation_matrix;
+use crate::scene::field::{DEP_N, DEP_P};
+use crate::scene::shape::{Num, Vector};
+use crate::scene::{
+    Const, FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn, Object, Param,
+    Polytope, Scene, Shape, ShapeKind, Slot,
 };
 use crate::syntax::ast::{BinOp, UnOp};
-use crate::math::plane::rotation;
 use std::collections::HashMap;
 
 /// The lowered scene: one graph, with roots for each object and for the whole scene.
@@ -22,6 +24,62 @@ pub struct SceneIr {
     pub nearest: Id,
     /// The camera orientation: plane rotations whose angles may depend on `t`.
     pub look: Vec<(Plane, Id)>,
+    /// `min |d_i|` over the visible objects and its argmin, for rays inside objects; present
+    /// when some object can be entered (glass, fog or air).
+    pub interior: Option<(Id, Id)>,
+    /// The spherical emitters, for light sampling.
+    pub lights: Vec<LightIr>,
+}
+
+/// A spherical light: object `object` is a hypersphere of radius `radius` under `places`
+/// (outermost first), with a constant `light` material.
+#[derive(Clone, Debug)]
+pub struct LightIr {
+    pub object: usize,
+    pub places: Vec<Place>,
+    pub radius: Id,
+}
+
+/// One shape operation around a light's hypersphere; parameters are roots of the graph.
+#[derive(Clone, Debug)]
+pub enum Place {
+    Translate([Id; 4]),
+    Rotate(Vec<(Plane, Id)>),
+    Scale(Id),
+    Round(Id),
+}
+
+impl LightIr {
+    /// Every node the placement reads.
+    pub fn ids(&self) -> Vec<Id> {
+        let mut out = vec![self.radius];
+        for p in &self.places {
+            match p {
+                Place::Translate(v) => out.extend(v),
+                Place::Rotate(steps) => out.extend(steps.iter().map(|(_, a)| *a)),
+                Place::Scale(k) | Place::Round(k) => out.push(*k),
+            }
+        }
+        out
+    }
+
+    fn map(&self, f: &mut impl FnMut(Id) -> Id) -> LightIr {
+        let places = (self.places.iter())
+            .map(|p| match p {
+                Place::Translate(v) => Place::Translate(v.map(&mut *f)),
+                Place::Rotate(steps) => {
+                    Place::Rotate(steps.iter().map(|(pl, a)| (*pl, f(*a))).collect())
+                }
+                Place::Scale(k) => Place::Scale(f(*k)),
+                Place::Round(r) => Place::Round(f(*r)),
+            })
+            .collect();
+        LightIr {
+            object: self.object,
+            places,
+            radius: f(self.radius),
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -38,20 +96,20 @@ pub struct MaterialIr {
     pub leaves: Vec<Leaf>,
 }
 
-/// One material of a map, with each parameter as 1 node (numbers) or 3 (colours).
-#[derive(Clone, Debug, PartialEq)]
-pub struct Leaf {
-    pub kind: MaterialKind,
-    pub params: Vec<(&'static str, Vec<Id>)>,
-}
+/// One material of a map, with each number as one node and each colour as three.
+pub type Leaf = Material<Id, [Id; 3]>;
 
 impl MaterialIr {
-    /// Every node a material map reads, for liveness and tape outputs.
+    /// Every node a material map reads, for liveness and tape outputs: the selector, then each
+    /// leaf's parameters in order.
     pub fn roots(&self) -> Vec<Id> {
         let mut out = vec![self.selector];
         for l in &self.leaves {
-            for (_, ids) in &l.params {
-                out.extend(ids);
+            for p in l.params() {
+                match p {
+                    Slot::Num(x) => out.push(*x),
+                    Slot::Color(c) => out.extend(c),
+                }
             }
         }
         out
@@ -61,16 +119,12 @@ impl MaterialIr {
     pub fn map(&self, f: &mut impl FnMut(Id) -> Id) -> MaterialIr {
         MaterialIr {
             selector: f(self.selector),
-            leaves: self
-                .leaves
-                .iter()
-                .map(|l| Leaf {
-                    kind: l.kind,
-                    params: l
-                        .params
-                        .iter()
-                        .map(|(n, ids)| (*n, ids.iter().map(|i| f(*i)).collect()))
-                        .collect(),
+            leaves: (self.leaves.iter())
+                .map(|l| {
+                    l.map(|_, p| match p {
+                        Slot::Num(x) => Slot::Num(f(*x)),
+                        Slot::Color(c) => Slot::Color(c.map(&mut *f)),
+                    })
                 })
                 .collect(),
         }
@@ -78,7 +132,12 @@ impl MaterialIr {
 
     /// Whether this is plain `air` everywhere.
     pub fn is_air(&self) -> bool {
-        self.leaves.iter().all(|l| l.kind == MaterialKind::Air)
+        self.leaves.iter().all(|l| l.kind() == MaterialKind::Air)
+    }
+
+    /// Whether some leaf can be entered (glass, fog or air).
+    pub fn has_interior(&self) -> bool {
+        self.leaves.iter().any(|l| l.kind().has_interior())
     }
 }
 
@@ -92,6 +151,12 @@ impl SceneIr {
             out.extend(o.material.roots());
         }
         out.extend(self.look.iter().map(|(_, a)| *a));
+        if let Some((d, n)) = self.interior {
+            out.extend([d, n]);
+        }
+        for l in &self.lights {
+            out.extend(l.ids());
+        }
         out
     }
 
@@ -110,6 +175,8 @@ impl SceneIr {
                 })
                 .collect(),
             look: self.look.iter().map(|(p, a)| (*p, f(*a))).collect(),
+            interior: self.interior.map(|(d, n)| (f(d), f(n))),
+            lights: self.lights.iter().map(|l| l.map(f)).collect(),
             graph,
         }
     }
@@ -172,9 +239,12 @@ pub fn lower(scene: &Scene) -> SceneIr {
     let mut objects = vec![];
     for o in &scene.objects {
         let distance = l.shape(&o.shape, p);
-        let material = match l.value(&o.material, env) {
-            Lv::M(m) => m,
-            _ => unreachable!("the checker gives every object a material"),
+        let material = match &o.material {
+            Param::Const(m) => l.material(m, env),
+            Param::Field(id) => match l.field(*id, env) {
+                Lv::M(m) => m,
+                other => unreachable!("the checker types a material map: {other:?}"),
+            },
         };
         objects.push(ObjectIr {
             name: o.name.clone(),
@@ -182,21 +252,14 @@ pub fn lower(scene: &Scene) -> SceneIr {
             material,
         });
     }
-    let (mut distance, mut nearest) = (l.k(f64::INFINITY), l.k(-1.0));
-    for (i, o) in objects.iter().enumerate() {
-        if o.material.is_air() {
-            continue;
-        }
-        let t =
-            l.g.intern(Node::MinId(distance, nearest, o.distance, K::new(i as f64)));
-        distance = l.g.intern(Node::Proj(t, 0));
-        nearest = l.g.intern(Node::Proj(t, 1));
-    }
-    let look = scene
-        .camera
-        .look
-        .iter()
-        .map(|(plane, a)| (*plane, l.scalar(a, env)))
+    let (distance, nearest) = l.nearest(&objects, |_, d| d);
+    let look = (scene.camera.look.iter())
+        .map(|(plane, a)| (*plane, l.num(a, env)))
+        .collect();
+    let interior = (objects.iter().any(|o| o.material.has_interior()))
+        .then(|| l.nearest(&objects, |l, d| l.un(Un::Abs, d)));
+    let lights = (scene.objects.iter().enumerate())
+        .filter_map(|(i, o)| l.light(i, o, env))
         .collect();
     SceneIr {
         graph: l.g,
@@ -204,6 +267,8 @@ pub fn lower(scene: &Scene) -> SceneIr {
         distance,
         nearest,
         look,
+        interior,
+        lights,
     }
 }
 
@@ -221,45 +286,127 @@ impl Lower<'_> {
         self.g.intern(Node::Var(Var::T))
     }
 
-    fn scalar(&mut self, v: &Value, env: Env) -> Id {
-        match self.value(v, env) {
+    /// The nearest visible object's `distance(d_i)` (a min over objects, with its index).
+    fn nearest(
+        &mut self,
+        objects: &[ObjectIr],
+        mut distance: impl FnMut(&mut Self, Id) -> Id,
+    ) -> (Id, Id) {
+        let (mut best, mut nearest) = (self.k(f64::INFINITY), self.k(-1.0));
+        for (i, o) in objects.iter().enumerate() {
+            if o.material.is_air() {
+                continue;
+            }
+            let d = distance(self, o.distance);
+            let t = (self.g).intern(Node::MinId(best, nearest, d, K::new(i as f64)));
+            best = self.g.intern(Node::Proj(t, 0));
+            nearest = self.g.intern(Node::Proj(t, 1));
+        }
+        (best, nearest)
+    }
+
+    /// Object `i` as a spherical light, if its material is a constant `light` and its shape a
+    /// hypersphere under translations, rotations, positive scales and roundings.
+    fn light(&mut self, i: usize, o: &Object, env: Env) -> Option<LightIr> {
+        match &o.material {
+            Param::Const(m) if m.kind() == MaterialKind::Light => {}
+            _ => return None,
+        }
+        if o.material_deps(self.fields) & (DEP_P | DEP_N) != 0 {
+            return None;
+        }
+        let mut places = vec![];
+        let mut s = &o.shape;
+        loop {
+            let place = match &s.kind {
+                ShapeKind::Hypersphere { radius } => {
+                    let radius = self.num(radius, env);
+                    return Some(LightIr {
+                        object: i,
+                        places,
+                        radius,
+                    });
+                }
+                ShapeKind::Translate { shape, offset } => {
+                    s = shape;
+                    Place::Translate(self.vector(offset, env))
+                }
+                ShapeKind::Scale { shape, factor } => {
+                    s = shape;
+                    Place::Scale(self.num(factor, env))
+                }
+                ShapeKind::Round { shape, radius } => {
+                    s = shape;
+                    Place::Round(self.num(radius, env))
+                }
+                ShapeKind::Rotate { shape, rotation } => {
+                    s = shape;
+                    let steps = rotation.iter().map(|(p, a)| (*p, self.num(a, env)));
+                    Place::Rotate(steps.collect())
+                }
+                _ => return None,
+            };
+            places.push(place);
+        }
+    }
+
+    fn scalar(&mut self, v: Lv) -> Id {
+        match v {
             Lv::S(a) => a,
             other => other.lanes()[0],
         }
     }
 
-    fn vector(&mut self, v: &Value, env: Env) -> [Id; 4] {
-        match self.value(v, env) {
-            Lv::V(v) => v,
-            Lv::S(a) => [a; 4],
-            other => unreachable!("checked as a vector: {other:?}"),
+    fn num(&mut self, v: &Num, env: Env) -> Id {
+        match v {
+            Param::Const(x) => self.k(*x),
+            Param::Field(id) => {
+                let v = self.field(*id, env);
+                self.scalar(v)
+            }
         }
     }
 
-    fn value(&mut self, v: &Value, env: Env) -> Lv {
+    fn vector(&mut self, v: &Vector, env: Env) -> [Id; 4] {
         match v {
-            Value::Num(x) | Value::Angle(x) => Lv::S(self.k(*x)),
-            Value::Bool(b) => Lv::S(self.k(if *b { 1.0 } else { 0.0 })),
-            Value::Vec4(v) => Lv::V(v.map(|x| self.k(x))),
-            Value::Color(c) => Lv::C(c.map(|x| self.k(x))),
-            Value::Material(m) => Lv::M(self.material(m, env)),
-            Value::Field(id, _) => self.field(*id, env),
-            other => unreachable!("not a run-time value: {other:?}"),
+            Param::Const(v) => v.map(|x| self.k(x)),
+            Param::Field(id) => match self.field(*id, env) {
+                Lv::V(v) => v,
+                Lv::S(a) => [a; 4],
+                other => unreachable!("checked as a vector: {other:?}"),
+            },
+        }
+    }
+
+    fn color(&mut self, c: &Param<[f64; 3]>, env: Env) -> [Id; 3] {
+        match c {
+            Param::Const(c) => c.map(|x| self.k(x)),
+            Param::Field(id) => match self.field(*id, env) {
+                Lv::C(c) => c,
+                Lv::S(a) => [a; 3],
+                other => unreachable!("checked as a colour: {other:?}"),
+            },
+        }
+    }
+
+    fn constant(&mut self, c: &Const, env: Env) -> Lv {
+        match c {
+            Const::Num(x) | Const::Angle(x) => Lv::S(self.k(*x)),
+            Const::Bool(b) => Lv::S(self.k(if *b { 1.0 } else { 0.0 })),
+            Const::Vec4(v) => Lv::V(v.map(|x| self.k(x))),
+            Const::Color(c) => Lv::C(c.map(|x| self.k(x))),
+            Const::Material(m) => Lv::M(self.material(m, env)),
         }
     }
 
     fn material(&mut self, m: &Material, env: Env) -> MaterialIr {
-        let params = m
-            .params
-            .iter()
-            .map(|(name, v)| (*name, self.value(v, env).lanes()))
-            .collect();
+        let leaf = m.map(|_, p| match p {
+            Slot::Num(x) => Slot::Num(self.num(x, env)),
+            Slot::Color(c) => Slot::Color(self.color(c, env)),
+        });
         MaterialIr {
             selector: self.k(0.0),
-            leaves: vec![Leaf {
-                kind: m.kind,
-                params,
-            }],
+            leaves: vec![leaf],
         }
     }
 
@@ -272,7 +419,7 @@ impl Lower<'_> {
             FieldOp::Input(Input::P) => Lv::V(env.p),
             FieldOp::Input(Input::N) => Lv::V(env.n),
             FieldOp::Input(Input::T) => Lv::S(self.t()),
-            FieldOp::Const(v) => self.value(v, env),
+            FieldOp::Const(c) => self.constant(c, env),
             FieldOp::Unary(op, a) => {
                 let a = self.field(*a, env);
                 let op = match op {
@@ -488,49 +635,38 @@ impl Lower<'_> {
         }
     }
 
-    fn param(&mut self, s: &Shape, name: &str, env: Env) -> Id {
-        let v = s.param(name).expect("the checker fills every parameter");
-        self.scalar(v, env)
-    }
-
-    fn const_param(s: &Shape, name: &str) -> Option<f64> {
-        match s.param(name) {
-            Some(Value::Num(x)) => Some(*x),
-            _ => None,
-        }
-    }
-
     /// The distance to shape `s` at point `p`.
     fn shape(&mut self, s: &Shape, p: [Id; 4]) -> Id {
+        use ShapeKind as S;
         // Shape parameters depend on `t` only; `p` and `n` are never read from them.
         let env = Env { p, n: p };
         let zero = self.k(0.0);
-        match s.kind {
-            ShapeKind::Hypersphere => {
+        match &s.kind {
+            S::Hypersphere { radius } => {
                 let len = self.g.intern(Node::Length(p, [K::new(0.0); 5]));
-                let r = self.param(s, "radius", env);
+                let r = self.num(radius, env);
                 self.bin(Bin::Sub, len, r)
             }
-            ShapeKind::Halfspace => match (s.param("normal"), Self::const_param(s, "offset")) {
-                (Some(Value::Vec4(n)), Some(o)) => {
+            S::Halfspace { normal, offset } => match (normal, offset.constant()) {
+                (Param::Const(n), Some(o)) => {
                     let row = [n[0], n[1], n[2], n[3], -o].map(K::new);
                     self.g.intern(Node::Affine(p, row))
                 }
                 _ => {
-                    let n = self.vector(s.param("normal").expect("normal"), env);
+                    let n = self.vector(normal, env);
                     let len = self.length(&Lv::V(n));
                     let d = self.zip(Bin::Mul, &Lv::V(p), &Lv::V(n)).lanes();
                     let d = self.sum(&d);
                     let d = self.bin(Bin::Div, d, len);
-                    let o = self.param(s, "offset", env);
+                    let o = self.num(offset, env);
                     self.bin(Bin::Sub, d, o)
                 }
             },
-            ShapeKind::Hyperbox => {
+            S::Hyperbox { half, radius } => {
                 // `radius` rounds the edges inside the same extents: box(half - r) - r.
-                let r = self.param(s, "radius", env);
-                match (s.param("half"), Self::const_param(s, "radius")) {
-                    (Some(Value::Vec4(h)), Some(rc)) => {
+                let r = self.num(radius, env);
+                match (half, radius.constant()) {
+                    (Param::Const(h), Some(rc)) => {
                         let mut row = [K::new(0.0); 9];
                         for i in 0..4 {
                             row[4 + i] = K::new((h[i] - rc).max(0.0));
@@ -539,7 +675,7 @@ impl Lower<'_> {
                         self.bin(Bin::Sub, d, r)
                     }
                     _ => {
-                        let h = self.vector(s.param("half").expect("half"), env);
+                        let h = self.vector(half, env);
                         let ds: Vec<Id> = (0..4)
                             .map(|i| {
                                 let a = self.un(Un::Abs, p[i]);
@@ -553,18 +689,18 @@ impl Lower<'_> {
                     }
                 }
             }
-            ShapeKind::Spherinder => {
-                let r = self.param(s, "radius", env);
-                let h = self.param(s, "height", env);
+            S::Spherinder { radius, height } => {
+                let r = self.num(radius, env);
+                let h = self.num(height, env);
                 let len = self.length(&Lv::V([p[0], p[1], p[2], zero]));
                 let a = self.bin(Bin::Sub, len, r);
                 let w = self.un(Un::Abs, p[3]);
                 let b = self.bin(Bin::Sub, w, h);
                 self.extrusion(&[a, b])
             }
-            ShapeKind::Cubinder => {
-                let r = self.param(s, "radius", env);
-                let h = self.param(s, "height", env);
+            S::Cubinder { radius, height } => {
+                let r = self.num(radius, env);
+                let h = self.num(height, env);
                 let len = self.length(&Lv::V([p[0], p[1], zero, zero]));
                 let a = self.bin(Bin::Sub, len, r);
                 let z = self.un(Un::Abs, p[2]);
@@ -573,54 +709,51 @@ impl Lower<'_> {
                 let c = self.bin(Bin::Sub, w, h);
                 self.extrusion(&[a, b, c])
             }
-            ShapeKind::Duocylinder => {
-                let r1 = self.param(s, "radius1", env);
-                let r2 = self.param(s, "radius2", env);
+            S::Duocylinder { radius1, radius2 } => {
+                let r1 = self.num(radius1, env);
+                let r2 = self.num(radius2, env);
                 let l1 = self.length(&Lv::V([p[0], p[1], zero, zero]));
                 let l2 = self.length(&Lv::V([p[2], p[3], zero, zero]));
                 let a = self.bin(Bin::Sub, l1, r1);
                 let b = self.bin(Bin::Sub, l2, r2);
                 self.extrusion(&[a, b])
             }
-            ShapeKind::Cell5 | ShapeKind::Cell16 | ShapeKind::Cell24 => {
-                let r = self.param(s, "radius", env);
-                self.polytope(s.kind, p, r)
+            S::Polytope { cells, radius } => {
+                let r = self.num(radius, env);
+                self.polytope(*cells, p, r)
             }
-            ShapeKind::Custom => {
-                let d = s.param("distance").expect("an sdf has a distance");
-                self.scalar(d, Env { p, n: p })
-            }
-            ShapeKind::Union | ShapeKind::Intersect => {
-                let ds: Vec<Id> = s.children.iter().map(|c| self.shape(c, p)).collect();
-                let k = self.param(s, "smooth", env);
-                let union = s.kind == ShapeKind::Union;
+            S::Custom { distance } => self.num(distance, Env { p, n: p }),
+            S::Union { shapes, smooth } | S::Intersect { shapes, smooth } => {
+                let ds: Vec<Id> = shapes.iter().map(|c| self.shape(c, p)).collect();
+                let k = self.num(smooth, env);
+                let union = matches!(s.kind, S::Union { .. });
                 ds.into_iter()
                     .reduce(|a, b| self.combine(union, a, b, k))
                     .expect("at least one shape")
             }
-            ShapeKind::Subtract => {
-                let a = self.shape(&s.children[0], p);
-                let b = self.shape(&s.children[1], p);
+            S::Subtract { shape, cut, smooth } => {
+                let a = self.shape(shape, p);
+                let b = self.shape(cut, p);
                 let nb = self.un(Un::Neg, b);
-                let k = self.param(s, "smooth", env);
+                let k = self.num(smooth, env);
                 self.combine(false, a, nb, k)
             }
-            ShapeKind::Onion => {
-                let d = self.shape(&s.children[0], p);
+            S::Onion { shape, thickness } => {
+                let d = self.shape(shape, p);
                 let a = self.un(Un::Abs, d);
-                let th = self.param(s, "thickness", env);
+                let th = self.num(thickness, env);
                 let half = self.k(0.5);
                 let h = self.bin(Bin::Mul, th, half);
                 self.bin(Bin::Sub, a, h)
             }
-            ShapeKind::Round => {
-                let d = self.shape(&s.children[0], p);
-                let r = self.param(s, "radius", env);
+            S::Round { shape, radius } => {
+                let d = self.shape(shape, p);
+                let r = self.num(radius, env);
                 self.bin(Bin::Sub, d, r)
             }
-            ShapeKind::Translate => {
-                let local = match s.param("offset") {
-                    Some(Value::Vec4(o)) => {
+            S::Translate { shape, offset } => {
+                let local = match offset {
+                    Param::Const(o) => {
                         let id = [
                             [1.0, 0.0, 0.0, 0.0],
                             [0.0, 1.0, 0.0, 0.0],
@@ -629,27 +762,24 @@ impl Lower<'_> {
                         ];
                         self.affine(p, id, o.map(|x| -x))
                     }
-                    _ => {
-                        let o = self.vector(s.param("offset").expect("offset"), env);
+                    Param::Field(_) => {
+                        let o = self.vector(offset, env);
                         std::array::from_fn(|i| self.bin(Bin::Sub, p[i], o[i]))
                     }
                 };
-                self.shape(&s.children[0], local)
+                self.shape(shape, local)
             }
-            ShapeKind::Rotate => {
-                let Some(Value::Rotation(steps)) = s.param("rotation") else {
-                    unreachable!("a rotation")
-                };
+            S::Rotate { shape, rotation } => {
                 // The shape turned by r1 then r2 is seen at R1^-1 R2^-1 p: undo the last first.
                 let mut q = p;
-                for (plane, angle) in steps.iter().rev() {
+                for (plane, angle) in rotation.iter().rev() {
                     q = match angle {
-                        Value::Angle(a) | Value::Num(a) => {
-                            let m = rotation(*plane, -a);
+                        Param::Const(a) => {
+                            let m = rotation_matrix(*plane, -a);
                             self.affine(q, m, [0.0; 4])
                         }
-                        v => {
-                            let a = self.scalar(v, env);
+                        Param::Field(_) => {
+                            let a = self.num(angle, env);
                             let (c, sn) = (self.un(Un::Cos, a), self.un(Un::Sin, a));
                             let (i, j) = plane.axes();
                             let mut out = q;
@@ -663,20 +793,20 @@ impl Lower<'_> {
                         }
                     };
                 }
-                self.shape(&s.children[0], q)
+                self.shape(shape, q)
             }
-            ShapeKind::Scale => {
-                let k = self.param(s, "factor", env);
-                let local = match Self::const_param(s, "factor") {
+            S::Scale { shape, factor } => {
+                let k = self.num(factor, env);
+                let local = match factor.constant() {
                     Some(f) => self.diag(p, [1.0 / f; 4]),
                     None => std::array::from_fn(|i| self.bin(Bin::Div, p[i], k)),
                 };
-                let d = self.shape(&s.children[0], local);
+                let d = self.shape(shape, local);
                 self.bin(Bin::Mul, d, k)
             }
-            ShapeKind::Symmetry => {
+            S::Symmetry { shape, normal } => {
                 // Reflect the half with dot(p, n) < 0 onto the other: p - 2 min(dot(p, n), 0) n.
-                let n = self.vector(s.param("normal").expect("normal"), env);
+                let n = self.vector(normal, env);
                 let len = self.length(&Lv::V(n));
                 let n: [Id; 4] = std::array::from_fn(|i| self.bin(Bin::Div, n[i], len));
                 let d = self.zip(Bin::Mul, &Lv::V(p), &Lv::V(n)).lanes();
@@ -688,14 +818,11 @@ impl Lower<'_> {
                     let m = self.bin(Bin::Mul, d2, n[i]);
                     self.bin(Bin::Sub, p[i], m)
                 });
-                self.shape(&s.children[0], q)
+                self.shape(shape, q)
             }
-            ShapeKind::Tile => {
-                let Some(Value::Lattice(lat)) = s.param("lattice") else {
-                    unreachable!("a lattice")
-                };
-                let (local, _) = self.cell(lat, p);
-                self.shape(&s.children[0], local)
+            S::Tile { shape, lattice } => {
+                let (local, _) = self.cell(lattice, p);
+                self.shape(shape, local)
             }
         }
     }
@@ -726,10 +853,10 @@ impl Lower<'_> {
 
     /// Regular polytopes of circumradius `r` as the largest signed distance to their facet
     /// hyperplanes: a distance bound, exact on the facets.
-    fn polytope(&mut self, kind: ShapeKind, p: [Id; 4], r: Id) -> Id {
+    fn polytope(&mut self, cells: Polytope, p: [Id; 4], r: Id) -> Id {
         let a = p.map(|x| self.un(Un::Abs, x));
-        match kind {
-            ShapeKind::Cell16 => {
+        match cells {
+            Polytope::Cell16 => {
                 // Facets x . (+-1/2, ...) = r/2.
                 let row = [0.5, 0.5, 0.5, 0.5, 0.0].map(K::new);
                 let d = self.g.intern(Node::Affine(a, row));
@@ -737,7 +864,7 @@ impl Lower<'_> {
                 let h = self.bin(Bin::Mul, r, half);
                 self.bin(Bin::Sub, d, h)
             }
-            ShapeKind::Cell24 => {
+            Polytope::Cell24 => {
                 // Facet normals: the 8 axes and the 16 (+-1/2, ...); inradius r / sqrt(2).
                 let row = [0.5, 0.5, 0.5, 0.5, 0.0].map(K::new);
                 let s = self.g.intern(Node::Affine(a, row));
@@ -749,7 +876,7 @@ impl Lower<'_> {
                 let ir = self.bin(Bin::Mul, r, f);
                 self.bin(Bin::Sub, d, ir)
             }
-            _ => {
+            Polytope::Cell5 => {
                 // The 5-cell: facet normals point away from the five vertices; inradius r / 4.
                 let ds: Vec<Id> = simplex_vertices()
                     .iter()

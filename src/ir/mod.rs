@@ -56,7 +56,6 @@ impl Var {
     }
 }
 
-
 /// A constant stored by its bits so nodes can be hashed; `-0.0` and `0.0` stay distinct, and
 /// every NaN is one constant.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

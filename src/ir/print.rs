@@ -1,7 +1,8 @@
 //! `--emit ir`: the graph as SSA text, constants written inline, then the roots.
 
+use super::lower::Place;
 use super::{Graph, Id, K, Node, SceneIr};
-use crate::check::value::Num;
+use crate::scene::{Num, Slot};
 use std::fmt::{self, Write};
 
 fn operand(g: &Graph, id: Id) -> String {
@@ -86,20 +87,42 @@ impl fmt::Display for SceneIr {
             }
             for (i, leaf) in m.leaves.iter().enumerate() {
                 let mut s = String::new();
-                for (j, (name, ids)) in leaf.params.iter().enumerate() {
+                let kind = leaf.kind();
+                for (j, (spec, p)) in kind.params().iter().zip(leaf.params()).enumerate() {
                     let sep = if j == 0 { "" } else { ", " };
-                    let v = if ids.len() == 1 {
-                        operand(g, ids[0])
-                    } else {
-                        list(g, ids)
+                    let v = match p {
+                        Slot::Num(x) => operand(g, *x),
+                        Slot::Color(c) => list(g, c),
                     };
-                    let _ = write!(s, "{sep}{name}: {v}");
+                    let _ = write!(s, "{sep}{}: {v}", spec.name);
                 }
-                writeln!(f, "  material {i}: {}({s})", leaf.kind.name())?;
+                writeln!(f, "  material {i}: {}({s})", kind.name())?;
             }
         }
         for (plane, a) in &self.look {
             writeln!(f, "camera look {} {}", plane.name(), operand(g, *a))?;
+        }
+        if let Some((d, n)) = self.interior {
+            writeln!(
+                f,
+                "interior distance {}, nearest {}",
+                operand(g, d),
+                operand(g, n)
+            )?;
+        }
+        for l in &self.lights {
+            let mut s = format!("radius {}", operand(g, l.radius));
+            for p in &l.places {
+                let _ = match p {
+                    Place::Translate(v) => write!(s, ", translate {}", list(g, v)),
+                    Place::Rotate(steps) => steps.iter().try_for_each(|(pl, a)| {
+                        write!(s, ", rotate {} {}", pl.name(), operand(g, *a))
+                    }),
+                    Place::Scale(k) => write!(s, ", scale {}", operand(g, *k)),
+                    Place::Round(r) => write!(s, ", round {}", operand(g, *r)),
+                };
+            }
+            writeln!(f, "light {}: {s}", self.objects[l.object].name)?;
         }
         Ok(())
     }

@@ -272,4 +272,3 @@ pub fn rep<T: Real>(x: T, l: T) -> [T; 2] {
 pub fn min_id<T: Real>(best: T, best_id: T, d: T, id: T) -> [T; 2] {
     if d < best { [d, id] } else { [best, best_id] }
 }
-

@@ -2,9 +2,9 @@
 //! position through a virtual screen in the 3D subspace spanned by the right, up and forward
 //! axes, so every frame images one 3D slice of the 4D world.
 
-use crate::check::Camera;
 use crate::math::Plane;
 use crate::math::plane::rotate;
+use crate::scene::Camera;
 use glam::DVec4;
 
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -7,11 +7,12 @@
 //! noise threshold, a pixel stops taking samples once its relative standard error is below it.
 
 use super::film::{Film, PixelSums};
-use super::frame::{FrameScene, Prepared};
+use super::frame::{Features, FrameScene};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
 use super::sampler::SamplerKind;
-use crate::check::Scene;
+use crate::compile::{Compiled, frame_time};
+use crate::scene::Scene;
 use glam::DVec4;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
@@ -69,15 +70,6 @@ pub struct Rendered {
     /// Time spent denoising (part of `elapsed`).
     pub denoise_time: Duration,
     pub elapsed: Duration,
-}
-
-/// The animation time of frame `f` of `frames`: 0 on the first, 1 on the last.
-pub fn frame_time(f: u32, frames: u32) -> f64 {
-    if frames <= 1 {
-        0.0
-    } else {
-        f as f64 / (frames - 1) as f64
-    }
 }
 
 /// Samples a render takes at most, for progress bars.
@@ -142,9 +134,10 @@ pub fn render(
         .build()
         .map_err(|e| format!("cannot start worker threads: {e}"))?;
     let r = &scene.render;
-    let mut prepared = Prepared::new(scene);
+    let compiled = Compiled::new(scene);
+    let mut features = Features::of(&compiled);
     if options.general {
-        prepared.features.interiors = true;
+        features.interiors = true;
     }
     let camera = &scene.camera;
     let reach = DVec4::from_array(camera.from)
@@ -188,7 +181,7 @@ pub fn render(
         let mut work: Vec<Work> = indices
             .iter()
             .map(|&f| {
-                let fs = prepared.frame(frame_time(f, r.frames));
+                let fs = FrameScene::new(scene, &compiled, features, frame_time(f, r.frames));
                 let initial = Stack::at_camera(&fs, r.epsilon);
                 let n = |t: &Tile| (t.width * t.height) as usize;
                 Work {

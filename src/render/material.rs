@@ -1,8 +1,8 @@
 //! Materials as the integrator sees them at one point: read from the outputs of an object's
 //! material tape (selector, then every leaf's parameters), or from the scene's constant medium.
 
-use crate::check::value::{Material, MaterialKind, Value};
 use crate::ir::lower::Leaf;
+use crate::scene::{Material, Param, Slot};
 use glam::DVec3;
 
 /// What a hit point scatters like.
@@ -81,51 +81,41 @@ impl Medium {
 
     /// The scene's global medium (`air` or a constant `fog`).
     pub fn of_material(m: &Material) -> Medium {
-        let num = |name, default| match m.param(name) {
-            Some(Value::Num(x)) => *x,
-            _ => default,
-        };
-        let color = |name, default| match m.param(name) {
-            Some(Value::Color(c)) => DVec3::from_array(*c),
-            Some(Value::Num(x)) => DVec3::splat(*x),
-            _ => default,
-        };
-        match m.kind {
-            MaterialKind::Fog => Medium {
-                sigma_t: num("extinction", 0.1),
-                albedo: color("albedo", DVec3::splat(0.9)),
-                g: num("anisotropy", 0.0),
+        match m {
+            Material::Fog {
+                extinction: Param::Const(sigma_t),
+                albedo: Param::Const(albedo),
+                anisotropy: Param::Const(g),
+            } => Medium {
+                sigma_t: *sigma_t,
+                albedo: DVec3::from_array(*albedo),
+                g: *g,
             },
             _ => Medium::VACUUM,
         }
     }
 }
 
-/// A parameter's name, first output and number of outputs (1 for numbers, 3 for colours).
-type Slot = (&'static str, usize, usize);
-
-/// Where each leaf's parameters sit among a material tape's outputs.
+/// Where each leaf's parameters sit among a material tape's outputs: each number's output,
+/// and each colour's first of three.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Layout {
-    leaves: Vec<(MaterialKind, Vec<Slot>)>,
+    leaves: Vec<Material<usize, usize>>,
 }
 
 impl Layout {
     pub fn new(leaves: &[Leaf]) -> Layout {
         let mut at = 1; // output 0 is the selector
-        let leaves = leaves
-            .iter()
+        let mut next = |n: usize| {
+            at += n;
+            at - n
+        };
+        let leaves = (leaves.iter())
             .map(|l| {
-                let params = l
-                    .params
-                    .iter()
-                    .map(|(name, ids)| {
-                        let p = (*name, at, ids.len());
-                        at += ids.len();
-                        p
-                    })
-                    .collect();
-                (l.kind, params)
+                l.map(|_, p| match p {
+                    Slot::Num(_) => Slot::Num(next(1)),
+                    Slot::Color(_) => Slot::Color(next(3)),
+                })
             })
             .collect();
         Layout { leaves }
@@ -133,16 +123,12 @@ impl Layout {
 
     /// Whether some leaf needs a medium or boundary (glass, fog or air).
     pub fn has_interior(&self) -> bool {
-        self.leaves.iter().any(|(k, _)| {
-            matches!(
-                k,
-                MaterialKind::Glass | MaterialKind::Fog | MaterialKind::Air
-            )
-        })
+        self.leaves.iter().any(|l| l.kind().has_interior())
     }
 
     /// The surface described by one point's tape outputs. The selector is clamped to the
-    /// leaves, so no output value can index out of range.
+    /// leaves, so no output value can index out of range; a non-finite parameter takes its
+    /// default from the builtin table.
     pub fn surface(&self, out: &[f32]) -> Surface {
         let last = self.leaves.len().saturating_sub(1);
         let sel = out[0];
@@ -151,49 +137,56 @@ impl Layout {
         } else {
             0
         };
-        let (kind, params) = &self.leaves[i];
-        let find = |name: &str| params.iter().find(|(n, _, _)| *n == name);
-        let num = |name, default: f64| {
-            find(name).map_or(default, |&(_, at, _)| finite(out[at] as f64, default))
-        };
-        let color = |name, default: f64| {
-            find(name).map_or(DVec3::splat(default), |&(_, at, len)| {
-                let c = |k: usize| finite(out[at + k.min(len - 1)] as f64, default).max(0.0);
-                DVec3::new(c(0), c(1), c(2))
-            })
-        };
-        match kind {
-            MaterialKind::Diffuse => Surface::Diffuse {
-                albedo: color("albedo", 0.8).min(DVec3::ONE),
-                emission: color("emission", 0.0),
+        let m: Material<f64, DVec3> = self.leaves[i].map(|spec, p| {
+            let default = spec.default.num();
+            match p {
+                Slot::Num(at) => Slot::Num(finite(out[*at] as f64, default)),
+                Slot::Color(at) => Slot::Color(DVec3::from_array(std::array::from_fn(|k| {
+                    finite(out[at + k] as f64, default).max(0.0)
+                }))),
+            }
+        });
+        match m {
+            Material::Diffuse { albedo, emission } => Surface::Diffuse {
+                albedo: albedo.min(DVec3::ONE),
+                emission,
             },
-            MaterialKind::Light => Surface::Light {
-                radiance: color("color", 1.0) * num("intensity", 1.0).max(0.0),
+            Material::Light { color, intensity } => Surface::Light {
+                radiance: color * intensity.max(0.0),
             },
-            MaterialKind::Mirror => Surface::Mirror {
-                tint: color("tint", 1.0).min(DVec3::ONE),
+            Material::Mirror { tint } => Surface::Mirror {
+                tint: tint.min(DVec3::ONE),
             },
-            MaterialKind::Glass => Surface::Glass {
-                ior: num("ior", 1.5).max(1e-3),
-                tint: color("tint", 1.0).min(DVec3::ONE),
+            Material::Glass {
+                ior,
+                tint,
+                extinction,
+                albedo,
+            } => Surface::Glass {
+                ior: ior.max(1e-3),
+                tint: tint.min(DVec3::ONE),
                 inside: Medium {
-                    sigma_t: num("extinction", 0.0).max(0.0),
-                    albedo: color("albedo", 1.0).min(DVec3::ONE),
+                    sigma_t: extinction.max(0.0),
+                    albedo: albedo.min(DVec3::ONE),
                     g: 0.0,
                 },
             },
-            MaterialKind::Shiny => Surface::Shiny {
-                roughness: num("roughness", 0.3).clamp(0.0, 1.0),
-                color: color("color", 0.9).min(DVec3::ONE),
+            Material::Shiny { roughness, color } => Surface::Shiny {
+                roughness: roughness.clamp(0.0, 1.0),
+                color: color.min(DVec3::ONE),
             },
-            MaterialKind::Fog => Surface::Boundary {
+            Material::Fog {
+                extinction,
+                albedo,
+                anisotropy,
+            } => Surface::Boundary {
                 inside: Medium {
-                    sigma_t: num("extinction", 0.1).max(0.0),
-                    albedo: color("albedo", 0.9).min(DVec3::ONE),
-                    g: num("anisotropy", 0.0).clamp(-1.0, 1.0),
+                    sigma_t: extinction.max(0.0),
+                    albedo: albedo.min(DVec3::ONE),
+                    g: anisotropy.clamp(-1.0, 1.0),
                 },
             },
-            MaterialKind::Air => Surface::Boundary {
+            Material::Air => Surface::Boundary {
                 inside: Medium::VACUUM,
             },
         }

@@ -12,8 +12,8 @@
 
 use super::median;
 use crate::Compilation;
-use crate::check::{Denoise, Scene};
 use crate::render::driver::{self, Options};
+use crate::scene::{Denoise, Scene};
 use std::fmt::Write as _;
 
 /// What a cost curve varies.

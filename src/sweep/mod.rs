@@ -19,10 +19,10 @@ pub mod costs;
 pub mod plot;
 pub mod report;
 
-use crate::check::{Denoise, Quality, RenderSettings, Scene};
 use crate::metrics::{self, ImageError};
 use crate::render::driver::{self, Options};
 use crate::render::sampler::SamplerKind;
+use crate::scene::{Denoise, Quality, RenderSettings, Scene};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 

@@ -2,7 +2,7 @@
 //! every file atomically (a temporary file beside it, renamed into place once complete).
 
 use super::{Bench, Family, Metric, Reach, Row};
-use crate::check::Denoise;
+use crate::scene::Denoise;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::{Path, PathBuf};

@@ -3,8 +3,8 @@
 //! code runs one point (`N = 1`) and forward-mode derivatives (`T = Dual`).
 
 use super::tape::{Instr, Tape};
-use crate::math::kernel::{self as eval, Real};
 use crate::ir::{Bin, Un};
+use crate::math::kernel::{self as eval, Real};
 
 /// Registers of one packet.
 pub struct Regs<T, const N: usize> {

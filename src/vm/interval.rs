@@ -2,8 +2,8 @@
 //! for pruning min/max branches and skipping empty space per tile.
 
 use super::tape::{INPUTS, Instr, Tape};
-use crate::math::kernel as eval;
 use crate::ir::{Bin, Un};
+use crate::math::kernel as eval;
 
 /// A closed interval `lo..=hi`.
 #[derive(Clone, Copy, Debug, PartialEq)]

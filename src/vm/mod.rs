@@ -1,7 +1,8 @@
 //! The bytecode VM: tapes compiled from the optimised IR, run over packets of points.
 //!
-//! `Program` holds every tape a scene needs: the scene (distance and nearest object), each
-//! object's distance, and each object's material map (selector, then every parameter).
+//! `Program` holds every tape one frame renders with: the scene (distance and nearest object),
+//! the interior (for rays inside objects), each object's distance, and each object's material
+//! map (selector, then every parameter). `compile` builds it.
 
 pub mod exec;
 pub mod grad;
@@ -13,8 +14,7 @@ pub use exec::{Regs, run};
 pub use grad::Dual;
 pub use tape::{Instr, Tape};
 
-use crate::check::Scene;
-use crate::ir::{self, SceneIr, Var};
+use crate::ir::{SceneIr, Var};
 
 /// Lanes per packet on the fast path.
 pub const LANES: usize = 64;
@@ -33,33 +33,16 @@ pub struct Program {
     pub ir: SceneIr,
     /// Outputs: distance to the nearest visible object, and its index (-1 for none).
     pub scene: Tape,
+    /// Outputs: unsigned distance to the nearest surface (`min |d_i|`) and its object, for rays
+    /// inside objects; `None` when no object can be entered.
+    pub interior: Option<Tape>,
     pub objects: Vec<ObjectTapes>,
 }
 
 impl Program {
-    /// Lower, optimise (with `t` free, or fixed to one frame's value) and compile.
-    pub fn new(scene: &Scene, t: Option<f64>) -> Program {
-        Program::from_ir(&ir::lower(scene), t)
-    }
-
-    pub fn from_ir(raw: &SceneIr, t: Option<f64>) -> Program {
-        let ir = ir::opt::optimise(raw, t);
-        let g = &ir.graph;
-        let scene = Tape::compile("scene", g, &[ir.distance, ir.nearest]);
-        let objects = ir
-            .objects
-            .iter()
-            .map(|o| ObjectTapes {
-                name: o.name.clone(),
-                distance: Tape::compile(&format!("{} distance", o.name), g, &[o.distance]),
-                material: Tape::compile(&format!("{} material", o.name), g, &o.material.roots()),
-            })
-            .collect();
-        Program { ir, scene, objects }
-    }
-
     pub fn tapes(&self) -> impl Iterator<Item = &Tape> {
         std::iter::once(&self.scene)
+            .chain(&self.interior)
             .chain(self.objects.iter().flat_map(|o| [&o.distance, &o.material]))
     }
 }

@@ -4,8 +4,8 @@
 
 use glam::DVec3;
 use hyperslice::Compilation;
-use hyperslice::check::Denoise;
 use hyperslice::render::driver::{self, Options, Rendered};
+use hyperslice::scene::Denoise;
 use rand::Rng;
 use rand_pcg::Pcg64Mcg;
 use std::f64::consts::PI;

@@ -23,6 +23,11 @@ pub enum Type {
 }
 
 impl Type {
+    /// Numbers, angles, vectors and colours: the types arithmetic works on.
+    pub fn is_numeric(&self) -> bool {
+        matches!(self, Type::Num | Type::Angle | Type::Vec4 | Type::Color)
+    }
+
     /// Whether a value of type `found` may be used where `self` is expected.
     pub fn accepts(&self, found: &Type) -> bool {
         match (self, found) {

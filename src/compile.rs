@@ -1,0 +1,136 @@
+//! The compile pipeline's single owner: a typed scene becomes what each frame renders.
+//!
+//! The scene is lowered to IR once ([`Compiled::new`]). For a frame at animation time `t`,
+//! [`Compiled::frame`] folds `t` in, optimises, compiles the scene, interior and per-object
+//! tapes ([`Compiled::program`]), and evaluates the camera's `look` angles and the spherical
+//! lights' placement from the same IR in `f64`. `--emit ir|bytecode` prints exactly this
+//! program, so what a user pins is what is rendered.
+
+use crate::ir::eval::Reference;
+use crate::ir::lower::Place;
+use crate::ir::{self, Id, SceneIr, Var, opt};
+use crate::math::Plane;
+use crate::math::plane::rotate;
+use crate::scene::Scene;
+use crate::vm::{ObjectTapes, Program, Tape};
+
+/// A scene lowered once, ready to be specialised per frame.
+#[derive(Clone, Debug)]
+pub struct Compiled {
+    /// The plain lowered IR, `t` free: the reference every optimised tape is tested against.
+    pub ir: SceneIr,
+}
+
+/// Where one spherical light is in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightPlacement {
+    /// The object's index in the scene.
+    pub object: usize,
+    pub center: [f64; 4],
+    pub radius: f64,
+}
+
+/// Everything compiled for one frame.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    pub t: f64,
+    pub program: Program,
+    /// The camera's `look` rotations with their angles at `t`.
+    pub look: Vec<(Plane, f64)>,
+    /// The spherical lights that exist at `t` (a zero or non-finite size drops one).
+    pub lights: Vec<LightPlacement>,
+}
+
+impl Compiled {
+    pub fn new(scene: &Scene) -> Compiled {
+        Compiled {
+            ir: ir::lower(scene),
+        }
+    }
+
+    /// The tapes with `t` folded in (or left free with `None`).
+    pub fn program(&self, t: Option<f64>) -> Program {
+        program(&self.ir, t)
+    }
+
+    /// Everything frame-specific at animation time `t`.
+    pub fn frame(&self, t: f64) -> Frame {
+        let mut roots: Vec<Id> = self.ir.look.iter().map(|(_, a)| *a).collect();
+        roots.extend(self.ir.lights.iter().flat_map(|l| l.ids()));
+        let mut reference = Reference::new(&self.ir.graph, &roots);
+        let mut vars = [0.0; 9];
+        vars[Var::T.index()] = t;
+        reference.run(&vars);
+        let get = |id: Id| reference.value(id);
+        let look = (self.ir.look.iter()).map(|(p, a)| (*p, get(*a))).collect();
+        let lights = (self.ir.lights.iter())
+            .filter_map(|l| {
+                // From the hypersphere outwards.
+                let mut center = [0.0; 4];
+                let mut radius = get(l.radius);
+                for place in l.places.iter().rev() {
+                    match place {
+                        Place::Translate(o) => {
+                            center = std::array::from_fn(|i| center[i] + get(o[i]))
+                        }
+                        Place::Rotate(steps) => {
+                            center = rotate(center, steps.iter().map(|(p, a)| (*p, get(*a))))
+                        }
+                        Place::Scale(k) => {
+                            let k = get(*k);
+                            if k.is_nan() || k <= 0.0 {
+                                return None;
+                            }
+                            center = center.map(|x| x * k);
+                            radius *= k;
+                        }
+                        Place::Round(r) => radius += get(*r),
+                    }
+                }
+                let usable =
+                    radius > 0.0 && radius.is_finite() && center.iter().all(|x| x.is_finite());
+                usable.then_some(LightPlacement {
+                    object: l.object,
+                    center,
+                    radius,
+                })
+            })
+            .collect();
+        Frame {
+            t,
+            program: self.program(Some(t)),
+            look,
+            lights,
+        }
+    }
+}
+
+/// The animation time of frame `f` of `frames`: 0 on the first, 1 on the last.
+pub fn frame_time(f: u32, frames: u32) -> f64 {
+    if frames <= 1 {
+        0.0
+    } else {
+        f as f64 / (frames - 1) as f64
+    }
+}
+
+/// Optimise `raw` (with `t` free, or fixed to one frame's value) and compile its tapes.
+pub fn program(raw: &SceneIr, t: Option<f64>) -> Program {
+    let ir = opt::optimise(raw, t);
+    let g = &ir.graph;
+    let scene = Tape::compile("scene", g, &[ir.distance, ir.nearest]);
+    let interior = (ir.interior).map(|(d, n)| Tape::compile("interior", g, &[d, n]));
+    let objects = (ir.objects.iter())
+        .map(|o| ObjectTapes {
+            name: o.name.clone(),
+            distance: Tape::compile(&format!("{} distance", o.name), g, &[o.distance]),
+            material: Tape::compile(&format!("{} material", o.name), g, &o.material.roots()),
+        })
+        .collect();
+    Program {
+        ir,
+        scene,
+        interior,
+        objects,
+    }
+}

@@ -1,0 +1,137 @@
+//! `hyperslice compile`: print one compiled stage of a scene, write it to a file, or check it
+//! against a file written earlier (a snapshot test for users without Rust).
+
+use clap::{Args, ValueEnum};
+use hyperslice::{At, Compilation};
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+#[derive(Args)]
+pub struct CompileArgs {
+    file: PathBuf,
+    /// The stage to print.
+    #[arg(long, default_value = "scene")]
+    emit: Emit,
+    /// For `ir` and `bytecode`: the frame whose tapes to show (0 is the first; the default).
+    #[arg(long, conflicts_with = "t")]
+    frame: Option<u32>,
+    /// For `ir` and `bytecode`: the animation time `t` whose tapes to show (0 to 1).
+    #[arg(long)]
+    t: Option<f64>,
+    /// Write the text to FILE (atomically) instead of standard output.
+    #[arg(long, value_name = "FILE", conflicts_with = "check")]
+    out: Option<PathBuf>,
+    /// Compare the text with FILE (written earlier with `--out`); exit 1 with a diff if the
+    /// compiled scene changed.
+    #[arg(long, value_name = "FILE")]
+    check: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum Emit {
+    /// The syntax tree.
+    Ast,
+    /// The typed, constant-evaluated scene.
+    Scene,
+    /// The optimised SDF IR one frame renders with.
+    Ir,
+    /// The bytecode tapes one frame renders with.
+    Bytecode,
+}
+
+pub fn run(args: CompileArgs, color: bool) -> ExitCode {
+    let c = Compilation::from_path(&args.file);
+    eprint!("{}", c.render_diagnostics(color));
+    if c.has_errors() {
+        return ExitCode::FAILURE;
+    }
+    let at = match (args.frame, args.t) {
+        (_, Some(t)) => At::Time(t),
+        (f, None) => At::Frame(f.unwrap_or(0)),
+    };
+    if let (Some(f), Some(scene)) = (args.frame, &c.scene)
+        && f >= scene.render.frames
+    {
+        eprintln!(
+            "error: frame {f} does not exist; the scene has {} frame{} (0 to {})",
+            scene.render.frames,
+            if scene.render.frames == 1 { "" } else { "s" },
+            scene.render.frames - 1
+        );
+        return ExitCode::FAILURE;
+    }
+    let text = match args.emit {
+        Emit::Ast => Some(c.emit_ast()),
+        Emit::Scene => c.emit_scene(),
+        Emit::Ir => c.emit_ir(at),
+        Emit::Bytecode => c.emit_bytecode(at),
+    }
+    .unwrap_or_default();
+    if let Some(path) = &args.out {
+        return match write_atomic(path, &args.file, &text) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: cannot write `{}`: {e}", path.display());
+                ExitCode::FAILURE
+            }
+        };
+    }
+    if let Some(path) = &args.check {
+        return check(path, &text);
+    }
+    print!("{text}");
+    ExitCode::SUCCESS
+}
+
+/// Write through a temporary file beside `path`, so a failed write leaves no half file; the
+/// scene itself is never overwritten.
+fn write_atomic(path: &Path, scene: &Path, text: &str) -> std::io::Result<()> {
+    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same(path, scene) {
+        return Err(std::io::Error::other("that is the scene file itself"));
+    }
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    let mut tmp = tempfile::NamedTempFile::new_in(dir)?;
+    tmp.write_all(text.as_bytes())?;
+    tmp.persist(path).map_err(|e| e.error)?;
+    Ok(())
+}
+
+/// Exit 0 when `path` holds exactly `text`; otherwise print a line diff and exit 1.
+fn check(path: &Path, text: &str) -> ExitCode {
+    let old = match std::fs::read_to_string(path) {
+        Ok(s) => s,
+        Err(e) => {
+            eprintln!("error: cannot read `{}`: {e}", path.display());
+            eprintln!("help: write it first with `--out {}`", path.display());
+            return ExitCode::FAILURE;
+        }
+    };
+    if old == text {
+        return ExitCode::SUCCESS;
+    }
+    let diff = similar::TextDiff::from_lines(old.as_str(), text);
+    eprintln!(
+        "error: the compiled scene differs from `{}` (- was, + now):",
+        path.display()
+    );
+    eprint!(
+        "{}",
+        diff.unified_diff()
+            .context_radius(2)
+            .header(&path.display().to_string(), "now")
+            .to_string()
+    );
+    eprintln!(
+        "help: if the change is intended, write it again with `--out {}`",
+        path.display()
+    );
+    ExitCode::FAILURE
+}

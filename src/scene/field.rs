@@ -1,0 +1,260 @@
+//! Field expressions: the values of a scene known only per point (`p`, `n`) or per frame (`t`),
+//! as an arena of typed nodes that lowering turns into IR. Children precede their parents.
+
+use super::lattice::Lattice;
+use super::material::Material;
+use super::types::Type;
+use crate::syntax::ast::{BinOp, UnOp};
+use std::rc::Rc;
+
+/// Inputs a field may depend on, as bit flags.
+pub const DEP_P: u8 = 1;
+pub const DEP_N: u8 = 2;
+pub const DEP_T: u8 = 4;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Input {
+    /// The point being shaded or measured.
+    P,
+    /// The surface normal at a hit point.
+    N,
+    /// The frame variable, 0 on the first frame and 1 on the last.
+    T,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FieldId(pub u32);
+
+/// A constant inside a field expression.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Const {
+    Num(f64),
+    Angle(f64),
+    Bool(bool),
+    Vec4([f64; 4]),
+    Color([f64; 3]),
+    Material(Rc<Material>),
+}
+
+/// A parameter that is a constant or a field (of `t` for shapes; of `p`, `n`, `t` for
+/// materials and custom distances).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Param<T> {
+    Const(T),
+    Field(FieldId),
+}
+
+impl<T: Copy> Param<T> {
+    /// The value, when it is a constant.
+    pub fn constant(&self) -> Option<T> {
+        match self {
+            Param::Const(x) => Some(*x),
+            Param::Field(_) => None,
+        }
+    }
+}
+
+impl<T> Param<T> {
+    pub fn deps(&self, fields: &Fields) -> u8 {
+        match self {
+            Param::Const(_) => 0,
+            Param::Field(id) => fields.get(*id).deps,
+        }
+    }
+}
+
+/// Maths builtins shared by constant evaluation and field expressions.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MathFn {
+    Sin,
+    Cos,
+    Tan,
+    Asin,
+    Acos,
+    Atan,
+    Atan2,
+    Sqrt,
+    Abs,
+    Floor,
+    Ceil,
+    Round,
+    Fract,
+    Sign,
+    Exp,
+    Log,
+    Pow,
+    Min,
+    Max,
+    Clamp,
+    Mix,
+    Length,
+    Dot,
+    Normalize,
+}
+
+impl MathFn {
+    /// Every maths builtin with its name in the language.
+    pub const ALL: [(&'static str, MathFn); 24] = {
+        use MathFn::*;
+        [
+            ("sin", Sin),
+            ("cos", Cos),
+            ("tan", Tan),
+            ("asin", Asin),
+            ("acos", Acos),
+            ("atan", Atan),
+            ("atan2", Atan2),
+            ("sqrt", Sqrt),
+            ("abs", Abs),
+            ("floor", Floor),
+            ("ceil", Ceil),
+            ("round", Round),
+            ("fract", Fract),
+            ("sign", Sign),
+            ("exp", Exp),
+            ("log", Log),
+            ("pow", Pow),
+            ("min", Min),
+            ("max", Max),
+            ("clamp", Clamp),
+            ("mix", Mix),
+            ("length", Length),
+            ("dot", Dot),
+            ("normalize", Normalize),
+        ]
+    };
+
+    pub fn from_name(name: &str) -> Option<MathFn> {
+        MathFn::ALL
+            .iter()
+            .find(|(n, _)| *n == name)
+            .map(|(_, f)| *f)
+    }
+
+    pub fn name(self) -> &'static str {
+        MathFn::ALL
+            .iter()
+            .find(|(_, f)| *f == self)
+            .map_or("?", |(n, _)| n)
+    }
+
+    pub fn params(self) -> &'static [&'static str] {
+        use MathFn::*;
+        match self {
+            Sin | Cos | Tan => &["angle"],
+            Atan2 => &["y", "x"],
+            Pow => &["x", "y"],
+            Min | Max | Dot => &["a", "b"],
+            Clamp => &["x", "lo", "hi"],
+            Mix => &["a", "b", "k"],
+            Length | Normalize => &["v"],
+            _ => &["x"],
+        }
+    }
+
+    /// Expected types of the arguments given the first one's type, and the result type.
+    pub fn signature(self, first: &Type) -> (Vec<Type>, Type) {
+        use MathFn::*;
+        use Type as T;
+        let x = if first.is_numeric() {
+            first.clone()
+        } else {
+            T::Num
+        };
+        match self {
+            Sin | Cos | Tan => (vec![T::Angle], T::Num),
+            Asin | Acos | Atan => (vec![T::Num], T::Angle),
+            Atan2 => (vec![T::Num, T::Num], T::Angle),
+            Sqrt | Exp | Log => {
+                let x = if *first == T::Vec4 { T::Vec4 } else { T::Num };
+                (vec![x.clone()], x)
+            }
+            Pow => (vec![T::Num, T::Num], T::Num),
+            Abs | Floor | Ceil | Round | Fract | Sign => (vec![x.clone()], x),
+            Min | Max => (vec![x.clone(), x.clone()], x),
+            Clamp => (vec![x.clone(), x.clone(), x.clone()], x),
+            Mix => (vec![x.clone(), x.clone(), T::Num], x),
+            Length => (vec![T::Vec4], T::Num),
+            Dot => (vec![T::Vec4, T::Vec4], T::Num),
+            Normalize => (vec![T::Vec4], T::Vec4),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum FieldOp {
+    Input(Input),
+    Const(Const),
+    Unary(UnOp, FieldId),
+    Binary(BinOp, FieldId, FieldId),
+    Math(MathFn, Vec<FieldId>),
+    Component(FieldId, u8),
+    MakeVec4([FieldId; 4]),
+    MakeColor([FieldId; 3]),
+    Select(FieldId, FieldId, FieldId),
+    /// Element `index` of a list (the index is clamped to the list at run time).
+    Index(Vec<FieldId>, FieldId),
+    /// The lattice cell containing a point.
+    Cell(Lattice, FieldId),
+}
+
+impl FieldOp {
+    /// The operands, in order.
+    pub fn children(&self) -> Vec<FieldId> {
+        match self {
+            FieldOp::Input(_) | FieldOp::Const(_) => vec![],
+            FieldOp::Unary(_, a) | FieldOp::Component(a, _) | FieldOp::Cell(_, a) => vec![*a],
+            FieldOp::Binary(_, a, b) => vec![*a, *b],
+            FieldOp::Math(_, xs) => xs.clone(),
+            FieldOp::MakeVec4(xs) => xs.to_vec(),
+            FieldOp::MakeColor(xs) => xs.to_vec(),
+            FieldOp::Select(c, a, b) => vec![*c, *a, *b],
+            FieldOp::Index(xs, i) => xs.iter().chain([i]).copied().collect(),
+        }
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct FieldNode {
+    pub op: FieldOp,
+    pub ty: Type,
+    pub deps: u8,
+}
+
+/// The arena of field expressions; children precede parents.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Fields {
+    pub nodes: Vec<FieldNode>,
+}
+
+impl Fields {
+    pub fn get(&self, id: FieldId) -> &FieldNode {
+        &self.nodes[id.0 as usize]
+    }
+
+    pub fn push(&mut self, op: FieldOp, ty: Type) -> FieldId {
+        let deps = match &op {
+            FieldOp::Input(Input::P) => DEP_P,
+            FieldOp::Input(Input::N) => DEP_N,
+            FieldOp::Input(Input::T) => DEP_T,
+            FieldOp::Const(Const::Material(m)) => m.deps(self),
+            op => op.children().iter().fold(0, |d, x| d | self.get(*x).deps),
+        };
+        self.nodes.push(FieldNode { op, ty, deps });
+        FieldId(self.nodes.len() as u32 - 1)
+    }
+}
+
+pub fn describe_deps(deps: u8) -> String {
+    let mut names = vec![];
+    if deps & DEP_P != 0 {
+        names.push("the point `p`");
+    }
+    if deps & DEP_N != 0 {
+        names.push("the normal `n`");
+    }
+    if deps & DEP_T != 0 {
+        names.push("the frame variable `t`");
+    }
+    names.join(" and ")
+}

@@ -1,0 +1,213 @@
+//! Materials with typed parameters. `Material<N, C>` is generic over how a number and a colour
+//! are held, so the same type serves every stage: the checked scene (constants or fields),
+//! the IR (node ids), the material tape's layout (output slots) and a hit point (values).
+
+use super::builtins::{self, ParamSpec};
+use super::field::{Fields, Param};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MaterialKind {
+    Diffuse,
+    Light,
+    Mirror,
+    Glass,
+    Shiny,
+    Fog,
+    Air,
+}
+
+impl MaterialKind {
+    pub const ALL: [MaterialKind; 7] = [
+        MaterialKind::Diffuse,
+        MaterialKind::Light,
+        MaterialKind::Mirror,
+        MaterialKind::Glass,
+        MaterialKind::Shiny,
+        MaterialKind::Fog,
+        MaterialKind::Air,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            MaterialKind::Diffuse => "diffuse",
+            MaterialKind::Light => "light",
+            MaterialKind::Mirror => "mirror",
+            MaterialKind::Glass => "glass",
+            MaterialKind::Shiny => "shiny",
+            MaterialKind::Fog => "fog",
+            MaterialKind::Air => "air",
+        }
+    }
+
+    /// The parameters of this material in the builtin table (none for `air`).
+    pub fn params(self) -> &'static [ParamSpec] {
+        builtins::find(self.name()).map_or(&[], |b| b.params)
+    }
+
+    /// Whether rays can travel inside an object of this material.
+    pub fn has_interior(self) -> bool {
+        matches!(
+            self,
+            MaterialKind::Glass | MaterialKind::Fog | MaterialKind::Air
+        )
+    }
+}
+
+/// One parameter: a number or a colour.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Slot<N, C> {
+    Num(N),
+    Color(C),
+}
+
+/// A material; parameters are in the order of the builtin table.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Material<N = Param<f64>, C = Param<[f64; 3]>> {
+    Diffuse {
+        albedo: C,
+        emission: C,
+    },
+    Light {
+        color: C,
+        intensity: N,
+    },
+    Mirror {
+        tint: C,
+    },
+    Glass {
+        ior: N,
+        tint: C,
+        extinction: N,
+        albedo: C,
+    },
+    Shiny {
+        roughness: N,
+        color: C,
+    },
+    Fog {
+        extinction: N,
+        albedo: C,
+        anisotropy: N,
+    },
+    Air,
+}
+
+impl<N, C> Material<N, C> {
+    pub fn kind(&self) -> MaterialKind {
+        match self {
+            Material::Diffuse { .. } => MaterialKind::Diffuse,
+            Material::Light { .. } => MaterialKind::Light,
+            Material::Mirror { .. } => MaterialKind::Mirror,
+            Material::Glass { .. } => MaterialKind::Glass,
+            Material::Shiny { .. } => MaterialKind::Shiny,
+            Material::Fog { .. } => MaterialKind::Fog,
+            Material::Air => MaterialKind::Air,
+        }
+    }
+
+    /// The parameters, in the table's order.
+    pub fn params(&self) -> Vec<Slot<&N, &C>> {
+        use Slot::{Color as C, Num as N};
+        match self {
+            Material::Diffuse { albedo, emission } => vec![C(albedo), C(emission)],
+            Material::Light { color, intensity } => vec![C(color), N(intensity)],
+            Material::Mirror { tint } => vec![C(tint)],
+            Material::Glass {
+                ior,
+                tint,
+                extinction,
+                albedo,
+            } => vec![N(ior), C(tint), N(extinction), C(albedo)],
+            Material::Shiny { roughness, color } => vec![N(roughness), C(color)],
+            Material::Fog {
+                extinction,
+                albedo,
+                anisotropy,
+            } => vec![N(extinction), C(albedo), N(anisotropy)],
+            Material::Air => vec![],
+        }
+    }
+
+    /// A material of `kind` from its parameters in the table's order; `None` when they do not
+    /// match the kind.
+    pub fn from_params(kind: MaterialKind, params: Vec<Slot<N, C>>) -> Option<Material<N, C>> {
+        use Slot::{Color as C, Num as N};
+        let mut it = params.into_iter();
+        let mut next = || it.next();
+        let m = match kind {
+            MaterialKind::Diffuse => match (next(), next()) {
+                (Some(C(albedo)), Some(C(emission))) => Material::Diffuse { albedo, emission },
+                _ => return None,
+            },
+            MaterialKind::Light => match (next(), next()) {
+                (Some(C(color)), Some(N(intensity))) => Material::Light { color, intensity },
+                _ => return None,
+            },
+            MaterialKind::Mirror => match next() {
+                Some(C(tint)) => Material::Mirror { tint },
+                _ => return None,
+            },
+            MaterialKind::Glass => match (next(), next(), next(), next()) {
+                (Some(N(ior)), Some(C(tint)), Some(N(extinction)), Some(C(albedo))) => {
+                    Material::Glass {
+                        ior,
+                        tint,
+                        extinction,
+                        albedo,
+                    }
+                }
+                _ => return None,
+            },
+            MaterialKind::Shiny => match (next(), next()) {
+                (Some(N(roughness)), Some(C(color))) => Material::Shiny { roughness, color },
+                _ => return None,
+            },
+            MaterialKind::Fog => match (next(), next(), next()) {
+                (Some(N(extinction)), Some(C(albedo)), Some(N(anisotropy))) => Material::Fog {
+                    extinction,
+                    albedo,
+                    anisotropy,
+                },
+                _ => return None,
+            },
+            MaterialKind::Air => Material::Air,
+        };
+        Some(m)
+    }
+
+    /// The same material with every parameter converted by `f`, which is also told the
+    /// parameter's table entry.
+    pub fn map<N2, C2>(
+        &self,
+        mut f: impl FnMut(&'static ParamSpec, Slot<&N, &C>) -> Slot<N2, C2>,
+    ) -> Material<N2, C2> {
+        let kind = self.kind();
+        let params = (kind.params().iter().zip(self.params()))
+            .map(|(spec, p)| f(spec, p))
+            .collect();
+        Material::from_params(kind, params).expect("a conversion keeps numbers and colours apart")
+    }
+}
+
+impl Material {
+    /// The material of `kind` with every parameter at its table default.
+    pub fn with_defaults(kind: MaterialKind) -> Material {
+        let params = (kind.params().iter())
+            .map(|spec| match spec.default {
+                builtins::ParamDefault::Grey(x) => Slot::Color(Param::Const([x; 3])),
+                d => Slot::Num(Param::Const(d.num())),
+            })
+            .collect();
+        Material::from_params(kind, params).expect("the table matches the material types")
+    }
+
+    /// Which of `p`, `n`, `t` the parameters depend on.
+    pub fn deps(&self, fields: &Fields) -> u8 {
+        self.params().iter().fold(0, |d, p| {
+            d | match p {
+                Slot::Num(x) => x.deps(fields),
+                Slot::Color(c) => c.deps(fields),
+            }
+        })
+    }
+}

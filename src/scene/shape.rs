@@ -1,0 +1,298 @@
+//! Shapes with typed parameters: a primitive or an operation over child shapes. Parameters
+//! are constants or fields of the frame variable `t` (a custom distance's of `p` too).
+
+use super::field::{DEP_P, Fields, Param};
+use super::lattice::Lattice;
+use crate::math::Plane;
+use std::rc::Rc;
+
+pub type Num = Param<f64>;
+pub type Vector = Param<[f64; 4]>;
+
+/// Plane rotations applied in order; angles are constants or fields of `t`.
+pub type Rotation = Vec<(Plane, Num)>;
+
+/// The regular polytopes, by their number of cells.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Polytope {
+    Cell5,
+    Cell16,
+    Cell24,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ShapeKind {
+    Hypersphere {
+        radius: Num,
+    },
+    Halfspace {
+        normal: Vector,
+        offset: Num,
+    },
+    Hyperbox {
+        half: Vector,
+        radius: Num,
+    },
+    Spherinder {
+        radius: Num,
+        height: Num,
+    },
+    Cubinder {
+        radius: Num,
+        height: Num,
+    },
+    Duocylinder {
+        radius1: Num,
+        radius2: Num,
+    },
+    Polytope {
+        cells: Polytope,
+        radius: Num,
+    },
+    /// `sdf |p| ...`: the distance is a field of `p` (and `t`).
+    Custom {
+        distance: Num,
+    },
+    Union {
+        shapes: Vec<Rc<Shape>>,
+        smooth: Num,
+    },
+    Intersect {
+        shapes: Vec<Rc<Shape>>,
+        smooth: Num,
+    },
+    Subtract {
+        shape: Rc<Shape>,
+        cut: Rc<Shape>,
+        smooth: Num,
+    },
+    Onion {
+        shape: Rc<Shape>,
+        thickness: Num,
+    },
+    Round {
+        shape: Rc<Shape>,
+        radius: Num,
+    },
+    Translate {
+        shape: Rc<Shape>,
+        offset: Vector,
+    },
+    Rotate {
+        shape: Rc<Shape>,
+        rotation: Rotation,
+    },
+    Scale {
+        shape: Rc<Shape>,
+        factor: Num,
+    },
+    Symmetry {
+        shape: Rc<Shape>,
+        normal: Vector,
+    },
+    Tile {
+        shape: Rc<Shape>,
+        lattice: Lattice,
+    },
+}
+
+/// A shape and its nesting depth, bounded so that every recursive pass over shapes stays
+/// shallow.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Shape {
+    pub kind: ShapeKind,
+    pub depth: u32,
+}
+
+/// A shape parameter, for the printer and for passes that treat parameters alike.
+#[derive(Clone, Copy, Debug)]
+pub enum ParamRef<'a> {
+    Num(&'a Num),
+    Vector(&'a Vector),
+    Rotation(&'a Rotation),
+    Lattice(&'a Lattice),
+}
+
+impl ParamRef<'_> {
+    /// Which of `p`, `n`, `t` the parameter depends on.
+    pub fn deps(&self, fields: &Fields) -> u8 {
+        match self {
+            ParamRef::Num(x) => x.deps(fields),
+            ParamRef::Vector(v) => v.deps(fields),
+            ParamRef::Rotation(r) => r.iter().fold(0, |d, (_, a)| d | a.deps(fields)),
+            ParamRef::Lattice(_) => 0,
+        }
+    }
+}
+
+impl Shape {
+    pub fn new(kind: ShapeKind) -> Shape {
+        let depth = 1 + kind.children().iter().map(|c| c.depth).max().unwrap_or(0);
+        Shape { kind, depth }
+    }
+
+    /// Which of `p`, `n`, `t` the shape depends on; a custom distance's own `p` is bound
+    /// inside it, so it does not count.
+    pub fn deps(&self, fields: &Fields) -> u8 {
+        let own = (self.kind.params().iter()).fold(0, |d, (_, p)| d | p.deps(fields));
+        let own = if matches!(self.kind, ShapeKind::Custom { .. }) {
+            own & !DEP_P
+        } else {
+            own
+        };
+        (self.kind.children().iter()).fold(own, |d, c| d | c.deps(fields))
+    }
+
+    /// A ball (centre, radius) containing the shape, when its parameters are constants.
+    pub fn bounds(&self) -> Option<([f64; 4], f64)> {
+        use ShapeKind as S;
+        let o = [0.0; 4];
+        Some(match &self.kind {
+            S::Hypersphere { radius } | S::Polytope { radius, .. } => (o, radius.constant()?),
+            S::Hyperbox { half, radius } => {
+                let h = half.constant()?;
+                (o, length(h) + radius.constant()?)
+            }
+            S::Spherinder { radius, height } => (o, radius.constant()?.hypot(height.constant()?)),
+            S::Cubinder { radius, height } => (
+                o,
+                (radius.constant()?.powi(2) + 2.0 * height.constant()?.powi(2)).sqrt(),
+            ),
+            S::Duocylinder { radius1, radius2 } => {
+                (o, radius1.constant()?.hypot(radius2.constant()?))
+            }
+            S::Halfspace { .. } | S::Custom { .. } | S::Tile { .. } | S::Symmetry { .. } => {
+                return None;
+            }
+            S::Union { shapes, smooth } => {
+                let bs: Vec<_> = shapes.iter().map(|c| c.bounds()).collect::<Option<_>>()?;
+                let k = smooth.constant().unwrap_or(0.0);
+                let c = bs[0].0;
+                let r = bs
+                    .iter()
+                    .map(|(bc, br)| distance(c, *bc) + br)
+                    .fold(0.0, f64::max);
+                (c, r + k)
+            }
+            S::Intersect { shapes, .. } => {
+                let bs: Vec<_> = shapes.iter().filter_map(|c| c.bounds()).collect();
+                *bs.iter().min_by(|a, b| a.1.total_cmp(&b.1))?
+            }
+            S::Subtract { shape, .. } => shape.bounds()?,
+            S::Onion { shape, thickness } => {
+                let (c, r) = shape.bounds()?;
+                (c, r + thickness.constant()? / 2.0)
+            }
+            S::Round { shape, radius } => {
+                let (c, r) = shape.bounds()?;
+                (c, r + radius.constant()?)
+            }
+            S::Translate { shape, offset } => {
+                let (c, r) = shape.bounds()?;
+                let v = offset.constant()?;
+                (std::array::from_fn(|i| c[i] + v[i]), r)
+            }
+            S::Rotate { shape, .. } => {
+                let (c, r) = shape.bounds()?;
+                if c != o {
+                    return None;
+                }
+                (o, r)
+            }
+            S::Scale { shape, factor } => {
+                let (c, r) = shape.bounds()?;
+                let k = factor.constant()?;
+                (c.map(|x| x * k), r * k)
+            }
+        })
+    }
+}
+
+impl ShapeKind {
+    /// The builtin's name.
+    pub fn name(&self) -> &'static str {
+        use ShapeKind as S;
+        match self {
+            S::Hypersphere { .. } => "hypersphere",
+            S::Halfspace { .. } => "halfspace",
+            S::Hyperbox { .. } => "hyperbox",
+            S::Spherinder { .. } => "spherinder",
+            S::Cubinder { .. } => "cubinder",
+            S::Duocylinder { .. } => "duocylinder",
+            S::Polytope { cells, .. } => match cells {
+                Polytope::Cell5 => "cell5",
+                Polytope::Cell16 => "cell16",
+                Polytope::Cell24 => "cell24",
+            },
+            S::Custom { .. } => "sdf",
+            S::Union { .. } => "union",
+            S::Intersect { .. } => "intersect",
+            S::Subtract { .. } => "subtract",
+            S::Onion { .. } => "onion",
+            S::Round { .. } => "round",
+            S::Translate { .. } => "translate",
+            S::Rotate { .. } => "rotate",
+            S::Scale { .. } => "scale",
+            S::Symmetry { .. } => "symmetry",
+            S::Tile { .. } => "tile",
+        }
+    }
+
+    /// The parameters other than child shapes, by name, in the order they are written.
+    pub fn params(&self) -> Vec<(&'static str, ParamRef<'_>)> {
+        use ParamRef as P;
+        use ShapeKind as S;
+        match self {
+            S::Hypersphere { radius } | S::Polytope { radius, .. } => {
+                vec![("radius", P::Num(radius))]
+            }
+            S::Halfspace { normal, offset } => {
+                vec![("normal", P::Vector(normal)), ("offset", P::Num(offset))]
+            }
+            S::Hyperbox { half, radius } => {
+                vec![("half", P::Vector(half)), ("radius", P::Num(radius))]
+            }
+            S::Spherinder { radius, height } | S::Cubinder { radius, height } => {
+                vec![("radius", P::Num(radius)), ("height", P::Num(height))]
+            }
+            S::Duocylinder { radius1, radius2 } => {
+                vec![("radius1", P::Num(radius1)), ("radius2", P::Num(radius2))]
+            }
+            S::Custom { distance } => vec![("distance", P::Num(distance))],
+            S::Union { smooth, .. } | S::Intersect { smooth, .. } | S::Subtract { smooth, .. } => {
+                vec![("smooth", P::Num(smooth))]
+            }
+            S::Onion { thickness, .. } => vec![("thickness", P::Num(thickness))],
+            S::Round { radius, .. } => vec![("radius", P::Num(radius))],
+            S::Translate { offset, .. } => vec![("offset", P::Vector(offset))],
+            S::Rotate { rotation, .. } => vec![("rotation", P::Rotation(rotation))],
+            S::Scale { factor, .. } => vec![("factor", P::Num(factor))],
+            S::Symmetry { normal, .. } => vec![("normal", P::Vector(normal))],
+            S::Tile { lattice, .. } => vec![("lattice", P::Lattice(lattice))],
+        }
+    }
+
+    pub fn children(&self) -> Vec<&Rc<Shape>> {
+        use ShapeKind as S;
+        match self {
+            S::Union { shapes, .. } | S::Intersect { shapes, .. } => shapes.iter().collect(),
+            S::Subtract { shape, cut, .. } => vec![shape, cut],
+            S::Onion { shape, .. }
+            | S::Round { shape, .. }
+            | S::Translate { shape, .. }
+            | S::Rotate { shape, .. }
+            | S::Scale { shape, .. }
+            | S::Symmetry { shape, .. }
+            | S::Tile { shape, .. } => vec![shape],
+            _ => vec![],
+        }
+    }
+}
+
+fn length(v: [f64; 4]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+pub fn distance(a: [f64; 4], b: [f64; 4]) -> f64 {
+    length(std::array::from_fn(|i| a[i] - b[i]))
+}
