@@ -272,3 +272,46 @@ pub fn rep<T: Real>(x: T, l: T) -> [T; 2] {
 pub fn min_id<T: Real>(best: T, best_id: T, d: T, id: T) -> [T; 2] {
     if d < best { [d, id] } else { [best, best_id] }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn dist(a: [f64; 4], b: [f64; 4]) -> f64 {
+        (0..4).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()
+    }
+
+    #[test]
+    fn d4_decoder_matches_brute_force() {
+        let mut seed = 12345u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 20.0
+        };
+        for _ in 0..2000 {
+            let p = [rnd(), rnd(), rnd(), rnd()];
+            let out = d4(p);
+            let got: [f64; 4] = std::array::from_fn(|i| out[4 + i]);
+            let mut best = f64::INFINITY;
+            for m in 0..81usize {
+                let q: [f64; 4] = std::array::from_fn(|i| {
+                    p[i].round() + ((m / 3usize.pow(i as u32)) % 3) as f64 - 1.0
+                });
+                if (q.iter().sum::<f64>() as i64).rem_euclid(2) == 0 {
+                    best = best.min(dist(p, q));
+                }
+            }
+            assert!(
+                (got.iter().sum::<f64>() as i64).rem_euclid(2) == 0,
+                "{got:?} not in D4"
+            );
+            assert!(
+                dist(p, got) <= best + 1e-12,
+                "{p:?}: got {got:?} at {} but best is {best}",
+                dist(p, got)
+            );
+        }
+    }
+}

@@ -366,3 +366,39 @@ pub fn show_param(spec: &ParamSpec) -> String {
         None => format!("`{}: {}`", spec.name, spec.ty.ty()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The reference tables of shapes and materials in `docs/language.md` list each builtin's
+    /// parameters exactly as the table defines them.
+    #[test]
+    fn docs_tables_match_the_table() {
+        let docs = include_str!("../../docs/language.md");
+        for b in TABLE
+            .iter()
+            .filter(|b| matches!(b.kind, Kind::Shape | Kind::Material))
+        {
+            let params: Vec<String> = b.params.iter().map(show_param).collect();
+            let row = format!("| `{}` | {} |", b.name, params.join(", "));
+            assert!(
+                docs.lines().any(|l| l.starts_with(&row)),
+                "docs/language.md has no row starting `{row}`"
+            );
+        }
+    }
+
+    #[test]
+    fn every_material_kind_has_its_table_entry() {
+        use crate::scene::MaterialKind;
+        for k in MaterialKind::ALL {
+            let n = k.params().len();
+            let entry = find(k.name()).map(|b| b.params.len());
+            assert_eq!(entry.unwrap_or(0), n, "{}", k.name());
+            if k != MaterialKind::Air {
+                assert!(entry.is_some_and(|e| e > 0), "{} is missing", k.name());
+            }
+        }
+    }
+}
