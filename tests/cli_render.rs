@@ -1,5 +1,6 @@
-//! `hyperslice render` end to end: files written, overrides applied, and every bad request
-//! refused with a clear message before any rendering starts.
+//! `hyperslice render` and `hyperslice compile` end to end: files written, overrides applied,
+//! pinned compiled scenes checked, and every bad request refused with a clear message before
+//! any work starts.
 
 use std::path::Path;
 use std::process::{Command, Output};
@@ -180,4 +181,110 @@ fn refuses_bad_flags_and_bad_scenes() {
     assert!(!o.status.success());
     assert!(stderr(&o).contains("hypersphere"), "{}", stderr(&o));
     assert!(!dir.path().join("bad.gif").exists());
+}
+
+#[test]
+fn compile_writes_and_checks_the_pinned_ir() {
+    let dir = setup();
+    let d = dir.path();
+    let out = hyperslice(
+        d,
+        &["compile", "scene.4ds", "--emit", "ir", "--out", "scene.ir"],
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    let pinned = std::fs::read_to_string(d.join("scene.ir")).expect("written");
+    let printed = hyperslice(d, &["compile", "scene.4ds", "--emit", "ir"]);
+    assert_eq!(String::from_utf8_lossy(&printed.stdout), pinned);
+    assert!(pinned.contains("light lamp: radius 0.5"), "{pinned}");
+
+    let same = hyperslice(
+        d,
+        &[
+            "compile",
+            "scene.4ds",
+            "--emit",
+            "ir",
+            "--check",
+            "scene.ir",
+        ],
+    );
+    assert!(same.status.success(), "{}", stderr(&same));
+
+    // The lamp moves: the check fails with a diff naming the old and the new offset.
+    let moved = SCENE.replace("[1, 2, 0, 0]", "[1, 3, 0, 0]");
+    std::fs::write(d.join("scene.4ds"), moved).expect("scene written");
+    let changed = hyperslice(
+        d,
+        &[
+            "compile",
+            "scene.4ds",
+            "--emit",
+            "ir",
+            "--check",
+            "scene.ir",
+        ],
+    );
+    assert_eq!(changed.status.code(), Some(1));
+    let err = stderr(&changed);
+    assert!(err.contains("differs from `scene.ir`"), "{err}");
+    assert!(
+        err.contains("-light lamp: radius 0.5, translate [1 2 0 0]"),
+        "{err}"
+    );
+    assert!(
+        err.contains("+light lamp: radius 0.5, translate [1 3 0 0]"),
+        "{err}"
+    );
+    assert!(err.contains("--out scene.ir"), "{err}");
+
+    let missing = hyperslice(
+        d,
+        &["compile", "scene.4ds", "--emit", "ir", "--check", "nope.ir"],
+    );
+    assert_eq!(missing.status.code(), Some(1));
+    assert!(
+        stderr(&missing).contains("cannot read `nope.ir`"),
+        "{}",
+        stderr(&missing)
+    );
+    let itself = hyperslice(
+        d,
+        &["compile", "scene.4ds", "--emit", "ir", "--out", "scene.4ds"],
+    );
+    assert_eq!(itself.status.code(), Some(1));
+    assert!(
+        std::fs::read_to_string(d.join("scene.4ds"))
+            .expect("kept")
+            .contains("object ball")
+    );
+}
+
+#[test]
+fn compile_picks_the_frame() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let scene = "render { frames = 3 }\nobject ball { shape = hypersphere(1 + t) }\n";
+    std::fs::write(d.join("anim.4ds"), scene).expect("scene written");
+    let ir = |args: &[&str]| {
+        let mut all = vec!["compile", "anim.4ds", "--emit", "ir"];
+        all.extend(args);
+        let o = hyperslice(d, &all);
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            stderr(&o),
+        )
+    };
+    // Frame 1 of 3 is t = 0.5: the radius folds to 1.5.
+    let (code, text, _) = ir(&["--frame", "1"]);
+    assert_eq!(code, Some(0));
+    assert!(text.contains("- 1.5"), "{text}");
+    assert_eq!(ir(&["--t", "0.5"]).1, text);
+    assert!(ir(&[]).1.contains("- 1\n"), "{}", ir(&[]).1);
+    let (code, _, err) = ir(&["--frame", "3"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        err.contains("frame 3 does not exist; the scene has 3 frames (0 to 2)"),
+        "{err}"
+    );
 }
