@@ -122,12 +122,10 @@ fn check(path: &Path, text: &str) -> ExitCode {
         "error: the compiled scene differs from `{}` (- was, + now):",
         path.display()
     );
+    let name = path.display().to_string();
     eprint!(
         "{}",
-        diff.unified_diff()
-            .context_radius(2)
-            .header(&path.display().to_string(), "now")
-            .to_string()
+        diff.unified_diff().context_radius(2).header(&name, "now")
     );
     eprintln!(
         "help: if the change is intended, write it again with `--out {}`",

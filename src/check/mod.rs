@@ -2,6 +2,7 @@
 //! ranges, and collects what depends on `p`, `n` or `t` as field expressions.
 
 mod builtins;
+mod context;
 mod eval;
 mod ops;
 mod scene;
@@ -202,7 +203,7 @@ impl Loader {
         let parse_failed = self.diags.iter().any(Diagnostic::is_error);
         let mut scene = None;
         if !parse_failed {
-            let mut ck = eval::Checker::new(&self.asts, std::mem::take(&mut self.imports));
+            let mut ck = context::Checker::new(&self.asts, std::mem::take(&mut self.imports));
             let s = scene::build(&mut ck, root);
             ck.finish_globals(root);
             let failed = ck.diags.iter().any(Diagnostic::is_error);

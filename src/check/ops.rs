@@ -1,7 +1,7 @@
 //! Operators and maths on values: one set of type rules, applied to constants directly and
 //! recorded as field nodes when an operand is known only per point or per frame.
 
-use super::eval::{Checker, article};
+use super::context::{Checker, article};
 use super::suggest::did_you_mean;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
@@ -215,13 +215,13 @@ fn range(ck: &mut Checker, lo: f64, hi: f64, aspan: Span, bspan: Span, span: Spa
         }
     }
     let len = (hi - lo).max(0.0);
-    if len > super::eval::MAX_LIST as f64 {
+    if len > super::context::MAX_LIST as f64 {
         return ck.error(
             Diagnostic::error("E0402", "range too large")
                 .label(span, format!("this range has {} items", Num(len)))
                 .note(format!(
                     "a range or list may have at most {} items",
-                    super::eval::MAX_LIST
+                    super::context::MAX_LIST
                 ))
                 .help("use `tile` to repeat a shape instead of listing copies"),
         );
@@ -398,7 +398,7 @@ pub fn index(ck: &mut Checker, list: Value, idx: Value, lspan: Span, ispan: Span
                             format!(
                                 "this list has {} item{}",
                                 items.len(),
-                                super::eval::plural(items.len())
+                                super::context::plural(items.len())
                             ),
                         )
                         .help("wrap the index with `mod`, as in `xs[i mod len(xs)]`"),
@@ -508,13 +508,7 @@ fn apply(f: MathFn, args: &[Value], ty: &Type) -> Value {
 }
 
 /// Call a maths builtin: check argument types, then compute or record a field node.
-pub fn math(
-    ck: &mut Checker,
-    f: MathFn,
-    name: &str,
-    args: Vec<super::eval::ArgVal>,
-    span: Span,
-) -> Value {
+pub fn math(ck: &mut Checker, f: MathFn, name: &str, args: Vec<ArgVal>, span: Span) -> Value {
     let Some(slots) = ck.bind(name, f.params(), args, span) else {
         return Value::Error;
     };

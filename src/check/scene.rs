@@ -1,7 +1,7 @@
 //! The scene builder: reads the root file's `render`, `camera`, `sky`, `medium` and `object`
 //! items and fills in the typed scene, reporting unknown, repeated and out-of-range settings.
 
-use super::eval::{Checker, duplicate};
+use super::context::{Checker, duplicate};
 use super::suggest::did_you_mean;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
@@ -440,7 +440,7 @@ fn object(
             let p = ck.field(FieldOp::Input(Input::P), Type::Vec4);
             let n = ck.field(FieldOp::Input(Input::N), Type::Vec4);
             let args = [p, n]
-                .map(|value| super::eval::ArgVal {
+                .map(|value| ArgVal {
                     name: None,
                     value,
                     span: *mspan,

@@ -1,8 +1,9 @@
 //! Values of the constant stage. Shapes, materials, lattices and rotations are the typed
 //! scene's own types; what depends on `p`, `n` or `t` is a field expression of the scene.
 
-use crate::source::FileId;
+use crate::source::{FileId, Span};
 use crate::syntax::ast::{ExprId, FnDef, Ident};
+use std::cell::Cell;
 use std::rc::Rc;
 
 pub use crate::math::Plane;
@@ -25,7 +26,7 @@ pub enum Function {
         file: FileId,
         params: Vec<Ident>,
         body: ExprId,
-        env: super::eval::Env,
+        env: Env,
     },
 }
 
@@ -154,4 +155,59 @@ pub fn deps(fields: &Fields, v: &Value) -> u8 {
         Value::Rotation(r) => r.iter().fold(0, |d, (_, a)| d | a.deps(fields)),
         _ => 0,
     }
+}
+
+/// A local binding; scopes form a persistent linked list so closures capture cheaply.
+#[derive(Debug)]
+pub struct Scope {
+    pub(super) name: String,
+    pub(super) value: Value,
+    pub(super) span: Span,
+    pub(super) used: Cell<bool>,
+    pub(super) parent: Env,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Env(Option<Rc<Scope>>);
+
+impl Env {
+    pub fn bind(&self, name: &str, value: Value, span: Span) -> (Env, Rc<Scope>) {
+        let scope = Rc::new(Scope {
+            name: name.to_string(),
+            value,
+            span,
+            used: Cell::new(false),
+            parent: self.clone(),
+        });
+        (Env(Some(scope.clone())), scope)
+    }
+
+    pub(super) fn lookup(&self, name: &str) -> Option<&Scope> {
+        let mut cur = self.0.as_deref();
+        while let Some(s) = cur {
+            if s.name == name {
+                return Some(s);
+            }
+            cur = s.parent.0.as_deref();
+        }
+        None
+    }
+
+    pub(super) fn names(&self) -> Vec<&str> {
+        let mut out = vec![];
+        let mut cur = self.0.as_deref();
+        while let Some(s) = cur {
+            out.push(s.name.as_str());
+            cur = s.parent.0.as_deref();
+        }
+        out
+    }
+}
+
+/// An evaluated argument.
+#[derive(Clone, Debug)]
+pub struct ArgVal {
+    pub name: Option<Ident>,
+    pub value: Value,
+    pub span: Span,
 }

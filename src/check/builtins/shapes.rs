@@ -1,186 +1,19 @@
-//! The builtin constants and functions: maths, shapes, operations, lattices, materials and
-//! constructors. Parameters, defaults and ranges come from the scene's builtin table; this
-//! file binds arguments to them, reports what is wrong, and builds typed scene values.
+//! Shape builtins: primitives and operations, `union`/`intersect` over any number of shapes,
+//! the four forms of `rotate`, and the checks every shape node passes (no per-point
+//! parameters, bounded depth, tiled shapes that fit their cell, intersections that can be empty).
 
-use super::eval::{ArgVal, Checker, MAX_SHAPE_DEPTH};
-use super::ops;
-use super::value::*;
+use super::{Args, default_value};
+use crate::check::context::{Checker, MAX_SHAPE_DEPTH};
+use crate::check::value::*;
 use crate::diagnostic::Diagnostic;
-use crate::scene::builtins::{self as table, ParamDefault, ParamSpec, SPECIAL};
+use crate::scene::builtins::ParamSpec;
 use crate::scene::shape::{Polytope, distance};
 use crate::source::Span;
 use std::rc::Rc;
 
-/// Every builtin name (for lookup and "did you mean").
-pub fn names() -> impl Iterator<Item = &'static str> {
-    (MathFn::ALL.iter().map(|(n, _)| *n))
-        .chain(table::TABLE.iter().map(|b| b.name))
-        .chain(SPECIAL)
-        .chain(table::CONSTANTS)
-}
-
-pub fn is_function(name: &str) -> bool {
-    names().any(|n| n == name) && !table::CONSTANTS.contains(&name)
-}
-
-pub fn intern(name: &str) -> &'static str {
-    names().find(|n| *n == name).unwrap_or("?")
-}
-
-pub fn constant(ck: &mut Checker, name: &str) -> Option<Value> {
-    Some(match name {
-        "pi" => Value::Num(std::f64::consts::PI),
-        "tau" => Value::Num(std::f64::consts::TAU),
-        "inf" => Value::Num(f64::INFINITY),
-        "air" => Value::Material(Rc::new(Material::Air)),
-        "t" => ck.field(FieldOp::Input(Input::T), Type::Num),
-        _ => {
-            return Plane::ALL
-                .iter()
-                .find(|(n, _)| *n == name)
-                .map(|(_, p)| Value::Plane(*p));
-        }
-    })
-}
-
-fn default_value(spec: &ParamSpec) -> Option<Value> {
-    match spec.default {
-        ParamDefault::Required => None,
-        ParamDefault::Num(x) => Some(Value::Num(x)),
-        ParamDefault::Vec4(v) => Some(Value::Vec4(v)),
-        ParamDefault::Grey(x) => Some(Value::Color([x; 3])),
-    }
-}
-
-/// Bound arguments of one builtin call, with typed accessors that report errors.
-struct Args<'c, 'a> {
-    ck: &'c mut Checker<'a>,
-    fname: &'static str,
-    names: Vec<&'static str>,
-    slots: Vec<Option<ArgVal>>,
-    span: Span,
-    ok: bool,
-}
-
-impl Args<'_, '_> {
-    /// The argument at `i`, converted to `want`, or `default`.
-    fn get_or(&mut self, i: usize, want: Type, default: Option<Value>) -> (Value, Span) {
-        let (v, span) = match (self.slots[i].take(), default) {
-            (Some(a), _) => (a.value, a.span),
-            (None, Some(d)) => (d, self.span),
-            (None, None) => {
-                self.ck.missing(self.fname, self.names[i], self.span);
-                self.ok = false;
-                return (Value::Error, self.span);
-            }
-        };
-        let v = ops::coerce(self.ck, v, &want);
-        let what = format!("argument `{}` of `{}`", self.names[i], self.fname);
-        if !self.ck.expect(&v, &want, span, &what) {
-            self.ok = false;
-            return (Value::Error, span);
-        }
-        (v, span)
-    }
-
-    /// The argument at `i` as its table entry `spec` types and defaults it.
-    fn get(&mut self, i: usize, spec: &ParamSpec) -> (Value, Span) {
-        self.get_or(i, spec.ty.ty(), default_value(spec))
-    }
-
-    /// The argument at `i`, whose constant components must satisfy the entry's range.
-    fn ranged(&mut self, i: usize, spec: &ParamSpec) -> Value {
-        let (v, span) = self.get(i, spec);
-        let comps: Vec<f64> = match &v {
-            Value::Num(x) | Value::Angle(x) => vec![*x],
-            Value::Vec4(a) => a.to_vec(),
-            Value::Color(c) => c.to_vec(),
-            _ => vec![],
-        };
-        if let Some(bad) = comps.iter().find(|x| !spec.range.test(**x)) {
-            let shown = if matches!(v, Value::Angle(_)) {
-                format!("{}deg", Num(bad.to_degrees()))
-            } else {
-                Num(*bad).to_string()
-            };
-            let rule = spec.range.rule();
-            self.ck.error(
-                Diagnostic::error(
-                    "E0301",
-                    format!("`{}` of `{}` is out of range", self.names[i], self.fname),
-                )
-                .label(span, format!("this is {shown}, but it must be {rule}"))
-                .help(format!("choose a value that is {rule}")),
-            );
-            self.ok = false;
-            return Value::Error;
-        }
-        v
-    }
-
-    /// A ranged compile-time constant.
-    fn constant(&mut self, i: usize, spec: &ParamSpec) -> Value {
-        let span = self.slots[i].as_ref().map_or(self.span, |a| a.span);
-        let v = self.ranged(i, spec);
-        let what = format!("`{}` of `{}`", self.names[i], self.fname);
-        if !self.ck.require_const(&v, span, &what) {
-            self.ok = false;
-            return Value::Error;
-        }
-        v
-    }
-
-    /// A ranged number parameter (constant or field).
-    fn num(&mut self, i: usize, spec: &ParamSpec) -> Param<f64> {
-        let v = self.ranged(i, spec);
-        v.num().unwrap_or(Param::Const(f64::NAN))
-    }
-
-    /// A shape argument.
-    fn shape(&mut self, i: usize) -> Option<Rc<Shape>> {
-        match self.get_or(i, Type::Shape, None).0 {
-            Value::Shape(s) => Some(s),
-            _ => {
-                self.ok = false;
-                None
-            }
-        }
-    }
-}
-
-pub fn call(ck: &mut Checker, name: &'static str, args: Vec<ArgVal>, span: Span) -> Value {
-    if let Some(f) = MathFn::from_name(name)
-        && !(name == "round" && args.first().is_some_and(|a| a.value.ty() == Type::Shape))
-    {
-        return ops::math(ck, f, name, args, span);
-    }
-    match name {
-        "union" | "intersect" => return combine(ck, name, args, span),
-        "rotate" => return rotate(ck, args, span),
-        _ => {}
-    }
-    let Some(builtin) = table::find(name) else {
-        return Value::Error;
-    };
-    let names = builtin.names();
-    let Some(slots) = ck.bind(name, &names, args, span) else {
-        return Value::Error;
-    };
-    let mut a = Args {
-        ck,
-        fname: name,
-        names,
-        slots,
-        span,
-        ok: true,
-    };
-    let out = build(&mut a, name, builtin.params);
-    if a.ok { out } else { Value::Error }
-}
-
-fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec]) -> Value {
+pub(super) fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec]) -> Value {
     use ShapeKind as S;
-    // The number parameters in the table's order (shapes have them first or only).
+    // The number parameters from `from` on, in the table's order.
     let nums = |a: &mut Args, from: usize| -> Vec<Param<f64>> {
         (from..specs.len()).map(|i| a.num(i, &specs[i])).collect()
     };
@@ -191,42 +24,6 @@ fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec]) -> Value
         make_shape(a.ck, kind, a.span)
     };
     match name {
-        "vec4" => {
-            let xs: Vec<Value> = (0..4).map(|i| a.get(i, &specs[i]).0).collect();
-            if !a.ok {
-                return Value::Error;
-            }
-            ops::make_vec4(a.ck, &xs)
-        }
-        "len" => {
-            let (v, span) = a.get_or(0, Type::List(Box::new(Type::Unknown)), None);
-            match v {
-                Value::List(xs) => Value::Num(xs.len() as f64),
-                Value::Error => Value::Error,
-                _ => a.ck.error(
-                    Diagnostic::error("E0201", "`len` takes a list").label(span, "not a list"),
-                ),
-            }
-        }
-        "rgb" => {
-            // `rgb(x)` is a grey: the missing channels default to the first.
-            let r = a.get(0, &specs[0]).0;
-            let g = a.get_or(1, Type::Num, Some(r.clone())).0;
-            let b = a.get_or(2, Type::Num, Some(r.clone())).0;
-            if !a.ok {
-                return Value::Error;
-            }
-            ops::make_color(a.ck, &[r, g, b])
-        }
-        "hsv" => {
-            let [h, s, v] = [0, 1, 2].map(|i| a.constant(i, &specs[i]));
-            match (h, s, v) {
-                (Value::Angle(h), Value::Num(s), Value::Num(v)) => {
-                    Value::Color(crate::math::color::hsv(h, s, v))
-                }
-                _ => Value::Error,
-            }
-        }
         "hypersphere" | "cell5" | "cell16" | "cell24" => {
             let radius = nums(a, 0)[0];
             let kind = match name {
@@ -399,85 +196,7 @@ fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec]) -> Value
                 },
             )
         }
-        "d4" => match a.constant(0, &specs[0]) {
-            Value::Num(scale) => Value::Lattice(Rc::new(Lattice::D4 { scale })),
-            _ => Value::Error,
-        },
-        "grid" => {
-            let (sp, sspan) = a.get_or(0, Type::Unknown, None);
-            let spacing = match sp {
-                Value::Num(x) => Some([x; 4]),
-                Value::Vec4(v) => Some(v),
-                Value::Error => None,
-                other => {
-                    a.ck.expect(&other, &Type::Vec4, sspan, "argument `spacing` of `grid`");
-                    None
-                }
-            };
-            if let Some(s) = spacing
-                && s.iter().any(|x| *x <= 0.0 || !x.is_finite())
-            {
-                a.ck.error(
-                    Diagnostic::error("E0301", "`spacing` of `grid` is out of range")
-                        .label(sspan, "every spacing must be greater than 0 and finite"),
-                );
-                return Value::Error;
-            }
-            let spacing_value = spacing.map_or(Value::Error, Value::Vec4);
-            a.ck.require_const(&spacing_value, sspan, "`spacing` of `grid`");
-            let limit = a.constant(1, &specs[1]);
-            match (spacing, limit) {
-                (Some(spacing), Value::Vec4(limit)) => Value::Lattice(Rc::new(Lattice::Grid {
-                    spacing,
-                    limit: limit.map(f64::floor),
-                })),
-                _ => Value::Error,
-            }
-        }
-        "d4_cell" | "lattice_cell" => {
-            let p = a.get(0, &specs[0]).0;
-            let lat = if name == "d4_cell" {
-                match a.constant(1, &specs[1]) {
-                    Value::Num(scale) => Lattice::D4 { scale },
-                    _ => return Value::Error,
-                }
-            } else {
-                match a.get(1, &specs[1]).0 {
-                    Value::Lattice(l) => (*l).clone(),
-                    _ => return Value::Error,
-                }
-            };
-            match p {
-                Value::Vec4(v) => Value::Vec4(lat.cell_of(v)),
-                Value::Field(id, _) => a.ck.field(FieldOp::Cell(lat, id), Type::Vec4),
-                _ => Value::Error,
-            }
-        }
-        _ => material(a, name, specs),
-    }
-}
-
-/// A material call: every parameter ranged and typed by the table.
-fn material(a: &mut Args, name: &str, specs: &'static [ParamSpec]) -> Value {
-    let Some(kind) = MaterialKind::ALL.into_iter().find(|k| k.name() == name) else {
-        return Value::Error;
-    };
-    let params: Vec<Slot<Param<f64>, Param<[f64; 3]>>> = (0..specs.len())
-        .map(|i| {
-            let v = a.ranged(i, &specs[i]);
-            if specs[i].ty == table::ParamType::Color {
-                Slot::Color(v.color().unwrap_or(Param::Const([f64::NAN; 3])))
-            } else {
-                Slot::Num(v.num().unwrap_or(Param::Const(f64::NAN)))
-            }
-        })
-        .collect();
-    if !a.ok {
-        return Value::Error;
-    }
-    match Material::from_params(kind, params) {
-        Some(m) => Value::Material(Rc::new(m)),
-        None => Value::Error,
+        _ => Value::Error,
     }
 }
 
@@ -552,7 +271,12 @@ fn flatten_shapes(ck: &mut Checker, v: &Value, span: Span) -> Option<Vec<Rc<Shap
 }
 
 /// `union(a, b, ..., smooth: k)` and `intersect(...)`: any number of shapes or lists of shapes.
-fn combine(ck: &mut Checker, name: &'static str, args: Vec<ArgVal>, span: Span) -> Value {
+pub(super) fn combine(
+    ck: &mut Checker,
+    name: &'static str,
+    args: Vec<ArgVal>,
+    span: Span,
+) -> Value {
     let mut shapes = vec![];
     let mut smooth = Value::Num(0.0);
     let mut ok = true;
@@ -584,7 +308,7 @@ fn combine(ck: &mut Checker, name: &'static str, args: Vec<ArgVal>, span: Span) 
                 smooth = a.value.clone();
             }
             Some(n) => {
-                let hint = super::suggest::did_you_mean(&n.name, ["smooth"]);
+                let hint = crate::check::suggest::did_you_mean(&n.name, ["smooth"]);
                 ck.error(
                     Diagnostic::error("E0203", format!("`{name}` has no parameter `{}`", n.name))
                         .label(n.span, "unknown argument name")
@@ -637,7 +361,7 @@ fn combine(ck: &mut Checker, name: &'static str, args: Vec<ArgVal>, span: Span) 
 }
 
 /// rotate(shape, plane, angle) | rotate(shape, rotation) | rotate(plane, angle) | rotate(rotation, plane, angle)
-fn rotate(ck: &mut Checker, args: Vec<ArgVal>, span: Span) -> Value {
+pub(super) fn rotate(ck: &mut Checker, args: Vec<ArgVal>, span: Span) -> Value {
     let first = args.first().map(|a| a.value.ty());
     let second = args.get(1).map(|a| a.value.ty());
     let names: &'static [&'static str] = match (&first, &second) {

@@ -1,0 +1,105 @@
+//! Value builtins: `vec4`, `len`, `rgb`, `hsv`, the lattices `d4` and `grid`, and the cell
+//! functions `d4_cell` and `lattice_cell`.
+
+use super::Args;
+use crate::check::ops;
+use crate::check::value::*;
+use crate::diagnostic::Diagnostic;
+use crate::scene::builtins::ParamSpec;
+use std::rc::Rc;
+
+pub(super) fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec]) -> Value {
+    match name {
+        "vec4" => {
+            let xs: Vec<Value> = (0..4).map(|i| a.get(i, &specs[i]).0).collect();
+            if !a.ok {
+                return Value::Error;
+            }
+            ops::make_vec4(a.ck, &xs)
+        }
+        "len" => {
+            let (v, span) = a.get_or(0, Type::List(Box::new(Type::Unknown)), None);
+            match v {
+                Value::List(xs) => Value::Num(xs.len() as f64),
+                Value::Error => Value::Error,
+                _ => a.ck.error(
+                    Diagnostic::error("E0201", "`len` takes a list").label(span, "not a list"),
+                ),
+            }
+        }
+        "rgb" => {
+            // `rgb(x)` is a grey: the missing channels default to the first.
+            let r = a.get(0, &specs[0]).0;
+            let g = a.get_or(1, Type::Num, Some(r.clone())).0;
+            let b = a.get_or(2, Type::Num, Some(r.clone())).0;
+            if !a.ok {
+                return Value::Error;
+            }
+            ops::make_color(a.ck, &[r, g, b])
+        }
+        "hsv" => {
+            let [h, s, v] = [0, 1, 2].map(|i| a.constant(i, &specs[i]));
+            match (h, s, v) {
+                (Value::Angle(h), Value::Num(s), Value::Num(v)) => {
+                    Value::Color(crate::math::color::hsv(h, s, v))
+                }
+                _ => Value::Error,
+            }
+        }
+        "d4" => match a.constant(0, &specs[0]) {
+            Value::Num(scale) => Value::Lattice(Rc::new(Lattice::D4 { scale })),
+            _ => Value::Error,
+        },
+        "grid" => {
+            let (sp, sspan) = a.get_or(0, Type::Unknown, None);
+            let spacing = match sp {
+                Value::Num(x) => Some([x; 4]),
+                Value::Vec4(v) => Some(v),
+                Value::Error => None,
+                other => {
+                    a.ck.expect(&other, &Type::Vec4, sspan, "argument `spacing` of `grid`");
+                    None
+                }
+            };
+            if let Some(s) = spacing
+                && s.iter().any(|x| *x <= 0.0 || !x.is_finite())
+            {
+                a.ck.error(
+                    Diagnostic::error("E0301", "`spacing` of `grid` is out of range")
+                        .label(sspan, "every spacing must be greater than 0 and finite"),
+                );
+                return Value::Error;
+            }
+            let spacing_value = spacing.map_or(Value::Error, Value::Vec4);
+            a.ck.require_const(&spacing_value, sspan, "`spacing` of `grid`");
+            let limit = a.constant(1, &specs[1]);
+            match (spacing, limit) {
+                (Some(spacing), Value::Vec4(limit)) => Value::Lattice(Rc::new(Lattice::Grid {
+                    spacing,
+                    limit: limit.map(f64::floor),
+                })),
+                _ => Value::Error,
+            }
+        }
+        "d4_cell" | "lattice_cell" => {
+            let p = a.get(0, &specs[0]).0;
+            let lat = if name == "d4_cell" {
+                match a.constant(1, &specs[1]) {
+                    Value::Num(scale) => Lattice::D4 { scale },
+                    _ => return Value::Error,
+                }
+            } else {
+                match a.get(1, &specs[1]).0 {
+                    Value::Lattice(l) => (*l).clone(),
+                    _ => return Value::Error,
+                }
+            };
+            match p {
+                Value::Vec4(v) => Value::Vec4(lat.cell_of(v)),
+                Value::Field(id, _) => a.ck.field(FieldOp::Cell(lat, id), Type::Vec4),
+                _ => Value::Error,
+            }
+        }
+        _ => Value::Error,
+    }
+}
