@@ -523,3 +523,35 @@ fn tapes_hold_only_what_their_roots_need() {
         tapes[2]
     );
 }
+
+/// `--emit bytecode` for a frame prints exactly the tapes the renderer builds for that frame
+/// (scene, interior, every object), for every frame of an animated scene with glass and lights.
+#[test]
+fn emitted_bytecode_is_what_each_frame_renders() {
+    use hyperslice::At;
+    use hyperslice::compile::{Compiled, frame_time};
+    use hyperslice::render::frame::{Features, FrameScene};
+    for example in ["examples/glass_box.4ds", "examples/tesseract.4ds"] {
+        let c = Compilation::from_path(Path::new(example));
+        let scene = c.scene.as_ref().expect("the example compiles");
+        let compiled = Compiled::new(scene);
+        let features = Features::of(&compiled);
+        for f in 0..scene.render.frames {
+            let fs = FrameScene::new(
+                scene,
+                &compiled,
+                features,
+                frame_time(f, scene.render.frames),
+            );
+            let mut rendered = format!("{}\n", fs.scene);
+            if let Some(t) = &fs.interior {
+                rendered += &format!("{t}\n");
+            }
+            for o in &fs.objects {
+                rendered += &format!("{}\n{}\n", o.distance, o.material);
+            }
+            let emitted = c.emit_bytecode(At::Frame(f)).expect("bytecode");
+            assert_eq!(emitted, rendered, "{example} frame {f}");
+        }
+    }
+}
