@@ -4,6 +4,7 @@
 use crate::render_command::parse_size;
 use clap::Args;
 use hyperslice::Compilation;
+use hyperslice::output::write_atomic;
 use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
 use hyperslice::sweep::{self, Family, Progress, SweepOptions, report};
 use std::path::{Path, PathBuf};
@@ -305,8 +306,8 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> 
         costs::markdown(&points)
     );
     print!("{md}");
-    let written = report::write_atomic(&out.join("costs.csv"), costs::csv(&points).as_bytes())
-        .and_then(|()| report::write_atomic(&out.join("costs.md"), md.as_bytes()));
+    let written = write_atomic(&out.join("costs.csv"), costs::csv(&points).as_bytes())
+        .and_then(|()| write_atomic(&out.join("costs.md"), md.as_bytes()));
     match written {
         Ok(()) => {
             eprintln!(

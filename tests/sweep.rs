@@ -333,11 +333,15 @@ fn a_reference_from_exr_must_match_the_sweep() {
     );
     assert_eq!(reference.noise, None);
     r.width = 16;
-    let e = sweep::load_reference(&path, &r).expect_err("wrong size");
+    let e = sweep::load_reference(&path, &r)
+        .expect_err("wrong size")
+        .to_string();
     assert!(e.contains("is 32x24 but the sweep renders 16x24"), "{e}");
     r.width = 32;
     r.frames = 2;
-    let e = sweep::load_reference(&path, &r).expect_err("one frame");
+    let e = sweep::load_reference(&path, &r)
+        .expect_err("one frame")
+        .to_string();
     assert!(e.contains("one frame but the sweep renders 2"), "{e}");
 }
 
@@ -435,7 +439,9 @@ fn plot_in_a_process_without_fonts() {
         return;
     }
     let rows = synthetic_rows();
-    let e = plot::draw(&rows, 300, 200, Some("title")).expect_err("no font is registered");
+    let e = plot::draw(&rows, 300, 200, Some("title"))
+        .expect_err("no font is registered")
+        .to_string();
     assert!(e.contains("Font"), "{e}");
     let pixels = plot::draw(&rows, 300, 200, None).expect("drawn without text");
     assert!(pixels.iter().any(|&p| p != 255), "something is drawn");

@@ -3,8 +3,9 @@
 
 use super::{Bench, Family, Metric, Reach, Row};
 use crate::check::Denoise;
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 /// What the Markdown report says about how the numbers were made.
@@ -266,38 +267,19 @@ pub fn markdown(bench: &Bench, ctx: &Context) -> String {
     out
 }
 
-/// Write `bytes` to `path` atomically: into a temporary file in the same directory, flushed to
-/// disk, then renamed over `path`.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("cannot write `{}`: {e}", path.display());
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| err(&e))?;
-    tmp.write_all(bytes).map_err(|e| err(&e))?;
-    tmp.as_file().sync_all().map_err(|e| err(&e))?;
-    tmp.persist(path).map_err(|e| err(&e.error))?;
-    Ok(())
-}
-
 /// Make sure results can be written into `dir` before any rendering: create it if needed and
 /// check a file can be created there (the probe is removed at once).
-pub fn prepare_out_dir(dir: &Path) -> Result<(), String> {
+pub fn prepare_out_dir(dir: &Path) -> Result<()> {
+    let path = dir.to_path_buf();
     if dir.exists() && !dir.is_dir() {
-        return Err(format!(
-            "cannot write results into `{}`: it is not a directory",
-            dir.display()
-        ));
+        return Err(Error::NotADirectory { path });
     }
-    std::fs::create_dir_all(dir)
-        .map_err(|e| format!("cannot create directory `{}`: {e}", dir.display()))?;
-    tempfile::NamedTempFile::new_in(dir).map(drop).map_err(|e| {
-        format!(
-            "cannot write results into `{}`: directory is not writable ({e})",
-            dir.display()
-        )
-    })
+    if let Err(source) = std::fs::create_dir_all(dir) {
+        return Err(Error::CreateDirectory { path, source });
+    }
+    tempfile::NamedTempFile::new_in(dir)
+        .map(drop)
+        .map_err(|source| Error::DirectoryNotWritable { path, source })
 }
 
 /// What [`write_results`] wrote.
@@ -311,7 +293,7 @@ pub struct Written {
 }
 
 /// Write `results.csv`, `results.md` and `plot.png` into `dir` (which must exist).
-pub fn write_results(dir: &Path, bench: &Bench, ctx: &Context) -> Result<Written, String> {
+pub fn write_results(dir: &Path, bench: &Bench, ctx: &Context) -> Result<Written> {
     let csv_path = dir.join("results.csv");
     let md_path = dir.join("results.md");
     let plot_path = dir.join("plot.png");
