@@ -6,7 +6,7 @@ use clap::Args;
 use hyperslice::Compilation;
 use hyperslice::output::write_atomic;
 use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
-use hyperslice::sweep::{self, Family, Progress, SweepOptions, report};
+use hyperslice::sweep::{self, Family, Progress, SweepOptions, report, sig};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -195,7 +195,7 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         match p {
             Progress::Reference { spp } => eprint!("[ref] reference, {spp} spp ... "),
             Progress::ReferenceDone { reference } => match reference.time {
-                Some(t) => eprintln!("{} s", report::sig(t, 3)),
+                Some(t) => eprintln!("{} s", sig(t, 3)),
                 None => eprintln!("[ref] reference {}", reference.source),
             },
             Progress::Start {
@@ -206,11 +206,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
                 "[{index}/{total}] {}, {} spp ... ",
                 config.label, config.spp
             ),
-            Progress::Done { row, .. } => eprintln!(
-                "{} s (RMSE {})",
-                report::sig(row.time, 3),
-                report::sig(row.error.rmse, 3)
-            ),
+            Progress::Done { row, .. } => {
+                eprintln!("{} s (RMSE {})", sig(row.time, 3), sig(row.error.rmse, 3))
+            }
         }
         open = matches!(p, Progress::Reference { .. } | Progress::Start { .. });
     };
@@ -284,7 +282,7 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> 
     );
     let mut progress = |p: CostProgress| match p {
         CostProgress::Start { knob, x } => eprint!("{} {x} ... ", knob.name()),
-        CostProgress::Done { point } => eprintln!("{} s", report::sig(point.time, 3)),
+        CostProgress::Done { point } => eprintln!("{} s", sig(point.time, 3)),
     };
     let points = match costs::cost_curves(scene, &opts, &mut progress) {
         Ok(p) => p,

@@ -10,7 +10,7 @@
 //! The object curve renders a generated scene (a floor, a lamp and `n` hyperspheres on a 4D
 //! grid), since a user's scene has the objects it has; the other curves render the given scene.
 
-use super::median;
+use super::{median, sig};
 use crate::Compilation;
 use crate::check::{Denoise, Scene};
 use crate::error::{Error, Result};
@@ -281,7 +281,7 @@ pub fn markdown(points: &[CostPoint]) -> String {
                 out,
                 "| {} | {} | {:.2} | {:.0} |",
                 p.x,
-                super::report::sig(p.time, 3),
+                sig(p.time, 3),
                 per_unit(p) / per_unit(first),
                 p.evaluations_per_sample
             );

@@ -682,6 +682,30 @@ pub fn median(v: &mut [f64]) -> f64 {
     }
 }
 
+/// A number to `digits` significant digits, fixed-point when that stays short (for tables,
+/// progress lines and the plot's tick labels).
+pub fn sig(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "NaN".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-3..5).contains(&mag) {
+        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = digits.saturating_sub(1))
+    }
+}
+
 /// Set every row's `pareto` flag from its (time, RMSE).
 pub fn mark_pareto(rows: &mut [Row]) {
     let points: Vec<(f64, f64)> = rows.iter().map(|r| (r.time, r.error.rmse)).collect();

@@ -3,8 +3,7 @@
 //! single-setting families, and each panel's Pareto front as a dashed line. Text needs a font
 //! from the system; without one the plot is drawn without text.
 
-use super::report::sig;
-use super::{Family, Metric, Row, pareto_front};
+use super::{Family, Metric, Row, pareto_front, sig};
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use plotters::coord::Shift;

@@ -1,7 +1,7 @@
 //! A sweep's results as CSV and Markdown, and writing them (with the plot) into a directory,
 //! every file atomically (a temporary file beside it, renamed into place once complete).
 
-use super::{Bench, Family, Metric, Reach, Row};
+use super::{Bench, Family, Metric, Reach, Row, sig};
 use crate::check::Denoise;
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
@@ -37,29 +37,6 @@ pub fn machine() -> String {
         std::env::consts::OS,
         std::env::consts::ARCH
     )
-}
-
-/// A number to `digits` significant digits, fixed-point when that stays short.
-pub fn sig(x: f64, digits: usize) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "NaN".into()
-        } else if x > 0.0 {
-            "inf".into()
-        } else {
-            "-inf".into()
-        };
-    }
-    if x == 0.0 {
-        return "0".into();
-    }
-    let mag = x.abs().log10().floor() as i32;
-    if (-3..5).contains(&mag) {
-        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = digits.saturating_sub(1))
-    }
 }
 
 fn denoise_name(d: Denoise) -> &'static str {
