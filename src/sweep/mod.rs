@@ -266,26 +266,30 @@ pub fn plan(base: &RenderSettings, opts: &SweepOptions) -> Vec<Config> {
             });
         }
     }
-    let scene_mark = |same: bool| if same { " (scene)" } else { "" };
+    // A single-setting configuration, its label marked when the setting is the scene's.
+    let at_mid = |family, label: String, scene: bool| {
+        let mark = if scene { " (scene)" } else { "" };
+        Config::base(family, label + mark, base, mid)
+    };
     for &e in &opts.epsilons {
-        let label = format!("epsilon {e:e}{}", scene_mark(e == base.epsilon));
+        let label = format!("epsilon {e:e}");
         out.push(Config {
             epsilon: e,
-            ..Config::base(Family::Epsilon, label, base, mid)
+            ..at_mid(Family::Epsilon, label, e == base.epsilon)
         });
     }
     for &s in &opts.max_steps {
-        let label = format!("max steps {s}{}", scene_mark(s == base.max_steps));
+        let label = format!("max steps {s}");
         out.push(Config {
             max_steps: s,
-            ..Config::base(Family::MaxSteps, label, base, mid)
+            ..at_mid(Family::MaxSteps, label, s == base.max_steps)
         });
     }
     for &b in &opts.bounces {
-        let label = format!("bounces {b}{}", scene_mark(b == base.bounces));
+        let label = format!("bounces {b}");
         out.push(Config {
             bounces: b,
-            ..Config::base(Family::Bounces, label, base, mid)
+            ..at_mid(Family::Bounces, label, b == base.bounces)
         });
     }
     for &q in &opts.presets {
