@@ -1,9 +1,9 @@
 //! `hyperslice bench`: measure speed against accuracy on one scene (see `sweep`), print the
 //! table, and write `results.csv`, `results.md` and `plot.png`.
 
-use crate::render_command::parse_size;
+use crate::render_command::{extent, parse_size};
 use clap::Args;
-use hyperslice::Compilation;
+use hyperslice::check::Scene;
 use hyperslice::output::write_atomic;
 use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
 use hyperslice::sweep::{self, Family, Progress, SweepOptions, report, sig};
@@ -120,12 +120,22 @@ fn command_line() -> String {
         .join(" ")
 }
 
+impl BenchArgs {
+    /// Worker threads: the flag's, else the scene's; `None` for every core.
+    fn threads(&self, scene: &Scene) -> Option<usize> {
+        let threads = self.threads.unwrap_or(scene.render.threads);
+        (threads > 0).then_some(threads as usize)
+    }
+}
+
 pub fn run(args: BenchArgs, color: bool) -> ExitCode {
-    let c = Compilation::from_path(&args.file);
-    eprint!("{}", c.render_diagnostics(color));
-    let Some(scene) = c.scene else {
-        return ExitCode::FAILURE;
-    };
+    match crate::compile(&args.file, color) {
+        Some(scene) => crate::finish(bench(&args, &scene)),
+        None => ExitCode::FAILURE,
+    }
+}
+
+fn bench(args: &BenchArgs, scene: &Scene) -> hyperslice::error::Result<()> {
     let stem = args
         .file
         .file_stem()
@@ -137,12 +147,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("bench-{stem}")));
     // Fail on an unwritable directory before spending any time rendering.
-    if let Err(e) = report::prepare_out_dir(&out) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
-    }
+    report::prepare_out_dir(&out)?;
     if args.costs {
-        return run_costs(&args, &scene, &out);
+        return run_costs(args, scene, &out);
     }
     let mut opts = if args.quick {
         SweepOptions::quick()
@@ -167,8 +174,7 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
     if args.reference_spp.is_some() {
         opts.reference_spp = args.reference_spp;
     }
-    let threads = args.threads.unwrap_or(scene.render.threads);
-    opts.threads = (threads > 0).then_some(threads as usize);
+    opts.threads = args.threads(scene);
 
     let r = opts.settings(&scene.render);
     let configs = sweep::plan(&r, &opts);
@@ -180,12 +186,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         ),
     };
     eprintln!(
-        "bench {}: {} x {}, {} frame{}, {} configurations (middle {} spp), {reference}",
+        "bench {}: {}, {} configurations (middle {} spp), {reference}",
         args.file.display(),
-        r.width,
-        r.height,
-        r.frames,
-        if r.frames == 1 { "" } else { "s" },
+        extent(&r),
         configs.len(),
         sweep::middle_spp(&opts.spp_list),
     );
@@ -212,17 +215,11 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         }
         open = matches!(p, Progress::Reference { .. } | Progress::Start { .. });
     };
-    let result = sweep::bench(&scene, &opts, args.reference.as_deref(), &mut progress);
-    let bench = match result {
-        Ok(b) => b,
-        Err(e) => {
-            if open {
-                eprintln!();
-            }
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let result = sweep::bench(scene, &opts, args.reference.as_deref(), &mut progress);
+    if result.is_err() && open {
+        eprintln!();
+    }
+    let bench = result?;
     let ctx = report::Context {
         scene: stem,
         command: command_line(),
@@ -233,28 +230,21 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
     if let Some(w) = report::reference_warning(&bench) {
         eprintln!("warning: {w}");
     }
-    match report::write_results(&out, &bench, &ctx) {
-        Ok(w) => {
-            if let Some(note) = &w.plot_note {
-                eprintln!("note: {note}");
-            }
-            eprintln!(
-                "wrote {}, {} and {}",
-                w.csv.display(),
-                w.markdown.display(),
-                w.plot.display()
-            );
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+    let w = report::write_results(&out, &bench, &ctx)?;
+    if let Some(note) = &w.plot_note {
+        eprintln!("note: {note}");
     }
+    eprintln!(
+        "wrote {}, {} and {}",
+        w.csv.display(),
+        w.markdown.display(),
+        w.plot.display()
+    );
+    Ok(())
 }
 
 /// `--costs`: the cost curves, printed and written as costs.csv and costs.md.
-fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> ExitCode {
+fn run_costs(args: &BenchArgs, scene: &Scene, out: &Path) -> hyperslice::error::Result<()> {
     let mut opts = if args.quick {
         CostOptions::quick()
     } else {
@@ -269,8 +259,7 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> 
     if let Some(n) = args.repeats {
         opts.repeats = n;
     }
-    let threads = args.threads.unwrap_or(scene.render.threads);
-    opts.threads = (threads > 0).then_some(threads as usize);
+    opts.threads = args.threads(scene);
     eprintln!(
         "cost curves of {}: base {} x {}, {} spp, {} frame(s), median of {} render(s) per point",
         args.file.display(),
@@ -284,13 +273,7 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> 
         CostProgress::Start { knob, x } => eprint!("{} {x} ... ", knob.name()),
         CostProgress::Done { point } => eprintln!("{} s", sig(point.time, 3)),
     };
-    let points = match costs::cost_curves(scene, &opts, &mut progress) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let points = costs::cost_curves(scene, &opts, &mut progress)?;
     let md = format!(
         "# Cost curves: {}\n\n- command: `{}`\n- machine: {}\n- base: {} x {}, {} spp, {} frame(s), no denoiser; each point the median of {} render(s)\n{}",
         args.file.display(),
@@ -304,20 +287,9 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::check::Scene, out: &Path) -> 
         costs::markdown(&points)
     );
     print!("{md}");
-    let written = write_atomic(&out.join("costs.csv"), costs::csv(&points).as_bytes())
-        .and_then(|()| write_atomic(&out.join("costs.md"), md.as_bytes()));
-    match written {
-        Ok(()) => {
-            eprintln!(
-                "wrote {} and {}",
-                out.join("costs.csv").display(),
-                out.join("costs.md").display()
-            );
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    let (csv_path, md_path) = (out.join("costs.csv"), out.join("costs.md"));
+    write_atomic(&csv_path, costs::csv(&points).as_bytes())?;
+    write_atomic(&md_path, md.as_bytes())?;
+    eprintln!("wrote {} and {}", csv_path.display(), md_path.display());
+    Ok(())
 }
