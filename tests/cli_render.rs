@@ -1,28 +1,11 @@
 //! `hyperslice render` end to end: files written, overrides applied, and every bad request
 //! refused with a clear message before any rendering starts.
 
+mod common;
+
+use common::{LIT_BALL, hyperslice, scene_dir};
 use std::path::Path;
-use std::process::{Command, Output};
-
-const SCENE: &str = "render { size = 320 x 240  frames = 3  spp = 64 }
-sky = rgb(0.6, 0.7, 0.9)
-object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
-object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 5) }
-";
-
-fn hyperslice(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hyperslice"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("ran hyperslice")
-}
-
-fn setup() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().expect("temp dir");
-    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
-    dir
-}
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -39,7 +22,7 @@ fn files(dir: &Path) -> Vec<String> {
 
 #[test]
 fn renders_an_animated_gif_with_overrides() {
-    let dir = setup();
+    let dir = scene_dir();
     let o = hyperslice(
         dir.path(),
         &[
@@ -73,7 +56,7 @@ fn renders_an_animated_gif_with_overrides() {
 
 #[test]
 fn writes_numbered_png_and_exr_frames() {
-    let dir = setup();
+    let dir = scene_dir();
     for ext in ["png", "exr"] {
         let out = format!("shot.{ext}");
         let o = hyperslice(
@@ -129,7 +112,7 @@ fn small_png(dir: &Path, out: &str, flag: &str, value: &str) -> Vec<u8> {
 
 #[test]
 fn the_same_seed_gives_the_same_file_whatever_the_threads() {
-    let dir = setup();
+    let dir = scene_dir();
     let a = small_png(dir.path(), "a.png", "--threads", "1");
     assert_eq!(a, small_png(dir.path(), "b.png", "--threads", "2"));
     // `--sampler random` is another image, and `sobol` (the default) the same one.
@@ -139,7 +122,7 @@ fn the_same_seed_gives_the_same_file_whatever_the_threads() {
 
 #[test]
 fn refuses_bad_outputs_before_rendering() {
-    let dir = setup();
+    let dir = scene_dir();
     for (out, message) in [
         ("missing/out.gif", "does not exist"),
         ("out.jpg", "unknown output format"),
@@ -155,14 +138,14 @@ fn refuses_bad_outputs_before_rendering() {
     }
     assert_eq!(
         std::fs::read_to_string(dir.path().join("scene.4ds")).unwrap(),
-        SCENE
+        LIT_BALL
     );
     assert_eq!(files(dir.path()), ["scene.4ds"]);
 }
 
 #[test]
 fn refuses_bad_flags_and_bad_scenes() {
-    let dir = setup();
+    let dir = scene_dir();
     let o = hyperslice(dir.path(), &["render", "scene.4ds", "--size", "20by10"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("WIDTHxHEIGHT"), "{}", stderr(&o));
