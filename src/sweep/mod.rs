@@ -1,11 +1,12 @@
-//! Speed against accuracy (`hyperslice bench`, see `PERFORMANCE.md`, "The speed/accuracy
-//! trade"): a reference render, then a sweep of configurations, each rendered once, timed, and
-//! compared with the reference (RMSE, PSNR, SSIM, mean luminance bias).
+//! Speed against accuracy (`hyperslice bench`, see `docs/performance.md`, "Speed against
+//! accuracy: `hyperslice bench`"): a reference render, then a sweep of configurations, each
+//! rendered, timed, and compared with the reference (RMSE, PSNR, SSIM, mean luminance bias).
 //!
 //! The families swept: samples per pixel with light sampling on and no denoiser (the baseline
 //! curve, with the default Sobol sampler); the same without light sampling; the same with
-//! independent random numbers; the median and a-trous denoisers on top of the baseline; marching epsilon, marching step limit and bounce depth at a middle sample count;
-//! the quality presets. Every configuration renders with the scene's seed and the reference
+//! independent random numbers; the median and a-trous denoisers on top of the baseline; marching
+//! epsilon, marching step limit and bounce depth at a middle sample count; the quality presets.
+//! Every configuration renders with the scene's seed and the reference
 //! with a different one (`seed + REFERENCE_SEED_OFFSET`), so the reference's noise is
 //! independent of every configuration's. Only the denoiser families denoise, whatever the
 //! scene's `denoise` says. Renders are deterministic, so repeating one changes only its time:
