@@ -1,11 +1,12 @@
 //! `hyperslice bench`: measure speed against accuracy on one scene (see `sweep`), print the
 //! table, and write `results.csv`, `results.md` and `plot.png`.
 
-use crate::render_command::parse_size;
+use crate::render_command::{extent, parse_size};
 use clap::Args;
-use hyperslice::Compilation;
+use hyperslice::output::write_atomic;
+use hyperslice::scene::Scene;
 use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
-use hyperslice::sweep::{self, Family, Progress, SweepOptions, report};
+use hyperslice::sweep::{self, Family, Progress, SweepOptions, report, sig};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -119,12 +120,22 @@ fn command_line() -> String {
         .join(" ")
 }
 
+impl BenchArgs {
+    /// Worker threads: the flag's, else the scene's; `None` for every core.
+    fn threads(&self, scene: &Scene) -> Option<usize> {
+        let threads = self.threads.unwrap_or(scene.render.threads);
+        (threads > 0).then_some(threads as usize)
+    }
+}
+
 pub fn run(args: BenchArgs, color: bool) -> ExitCode {
-    let c = Compilation::from_path(&args.file);
-    eprint!("{}", c.render_diagnostics(color));
-    let Some(scene) = c.scene else {
-        return ExitCode::FAILURE;
-    };
+    match crate::compile(&args.file, color) {
+        Some(scene) => crate::finish(bench(&args, &scene)),
+        None => ExitCode::FAILURE,
+    }
+}
+
+fn bench(args: &BenchArgs, scene: &Scene) -> hyperslice::error::Result<()> {
     let stem = args
         .file
         .file_stem()
@@ -136,12 +147,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         .clone()
         .unwrap_or_else(|| PathBuf::from(format!("bench-{stem}")));
     // Fail on an unwritable directory before spending any time rendering.
-    if let Err(e) = report::prepare_out_dir(&out) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
-    }
+    report::prepare_out_dir(&out)?;
     if args.costs {
-        return run_costs(&args, &scene, &out);
+        return run_costs(args, scene, &out);
     }
     let mut opts = if args.quick {
         SweepOptions::quick()
@@ -166,8 +174,7 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
     if args.reference_spp.is_some() {
         opts.reference_spp = args.reference_spp;
     }
-    let threads = args.threads.unwrap_or(scene.render.threads);
-    opts.threads = (threads > 0).then_some(threads as usize);
+    opts.threads = args.threads(scene);
 
     let r = opts.settings(&scene.render);
     let configs = sweep::plan(&r, &opts);
@@ -179,12 +186,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         ),
     };
     eprintln!(
-        "bench {}: {} x {}, {} frame{}, {} configurations (middle {} spp), {reference}",
+        "bench {}: {}, {} configurations (middle {} spp), {reference}",
         args.file.display(),
-        r.width,
-        r.height,
-        r.frames,
-        if r.frames == 1 { "" } else { "s" },
+        extent(&r),
         configs.len(),
         sweep::middle_spp(&opts.spp_list),
     );
@@ -194,7 +198,7 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
         match p {
             Progress::Reference { spp } => eprint!("[ref] reference, {spp} spp ... "),
             Progress::ReferenceDone { reference } => match reference.time {
-                Some(t) => eprintln!("{} s", report::sig(t, 3)),
+                Some(t) => eprintln!("{} s", sig(t, 3)),
                 None => eprintln!("[ref] reference {}", reference.source),
             },
             Progress::Start {
@@ -205,25 +209,17 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
                 "[{index}/{total}] {}, {} spp ... ",
                 config.label, config.spp
             ),
-            Progress::Done { row, .. } => eprintln!(
-                "{} s (RMSE {})",
-                report::sig(row.time, 3),
-                report::sig(row.error.rmse, 3)
-            ),
+            Progress::Done { row, .. } => {
+                eprintln!("{} s (RMSE {})", sig(row.time, 3), sig(row.error.rmse, 3))
+            }
         }
         open = matches!(p, Progress::Reference { .. } | Progress::Start { .. });
     };
-    let result = sweep::bench(&scene, &opts, args.reference.as_deref(), &mut progress);
-    let bench = match result {
-        Ok(b) => b,
-        Err(e) => {
-            if open {
-                eprintln!();
-            }
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let result = sweep::bench(scene, &opts, args.reference.as_deref(), &mut progress);
+    if result.is_err() && open {
+        eprintln!();
+    }
+    let bench = result?;
     let ctx = report::Context {
         scene: stem,
         command: command_line(),
@@ -234,28 +230,21 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
     if let Some(w) = report::reference_warning(&bench) {
         eprintln!("warning: {w}");
     }
-    match report::write_results(&out, &bench, &ctx) {
-        Ok(w) => {
-            if let Some(note) = &w.plot_note {
-                eprintln!("note: {note}");
-            }
-            eprintln!(
-                "wrote {}, {} and {}",
-                w.csv.display(),
-                w.markdown.display(),
-                w.plot.display()
-            );
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+    let w = report::write_results(&out, &bench, &ctx)?;
+    if let Some(note) = &w.plot_note {
+        eprintln!("note: {note}");
     }
+    eprintln!(
+        "wrote {}, {} and {}",
+        w.csv.display(),
+        w.markdown.display(),
+        w.plot.display()
+    );
+    Ok(())
 }
 
 /// `--costs`: the cost curves, printed and written as costs.csv and costs.md.
-fn run_costs(args: &BenchArgs, scene: &hyperslice::scene::Scene, out: &Path) -> ExitCode {
+fn run_costs(args: &BenchArgs, scene: &Scene, out: &Path) -> hyperslice::error::Result<()> {
     let mut opts = if args.quick {
         CostOptions::quick()
     } else {
@@ -270,8 +259,7 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::scene::Scene, out: &Path) -> 
     if let Some(n) = args.repeats {
         opts.repeats = n;
     }
-    let threads = args.threads.unwrap_or(scene.render.threads);
-    opts.threads = (threads > 0).then_some(threads as usize);
+    opts.threads = args.threads(scene);
     eprintln!(
         "cost curves of {}: base {} x {}, {} spp, {} frame(s), median of {} render(s) per point",
         args.file.display(),
@@ -283,15 +271,9 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::scene::Scene, out: &Path) -> 
     );
     let mut progress = |p: CostProgress| match p {
         CostProgress::Start { knob, x } => eprint!("{} {x} ... ", knob.name()),
-        CostProgress::Done { point } => eprintln!("{} s", report::sig(point.time, 3)),
+        CostProgress::Done { point } => eprintln!("{} s", sig(point.time, 3)),
     };
-    let points = match costs::cost_curves(scene, &opts, &mut progress) {
-        Ok(p) => p,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let points = costs::cost_curves(scene, &opts, &mut progress)?;
     let md = format!(
         "# Cost curves: {}\n\n- command: `{}`\n- machine: {}\n- base: {} x {}, {} spp, {} frame(s), no denoiser; each point the median of {} render(s)\n{}",
         args.file.display(),
@@ -305,20 +287,9 @@ fn run_costs(args: &BenchArgs, scene: &hyperslice::scene::Scene, out: &Path) -> 
         costs::markdown(&points)
     );
     print!("{md}");
-    let written = report::write_atomic(&out.join("costs.csv"), costs::csv(&points).as_bytes())
-        .and_then(|()| report::write_atomic(&out.join("costs.md"), md.as_bytes()));
-    match written {
-        Ok(()) => {
-            eprintln!(
-                "wrote {} and {}",
-                out.join("costs.csv").display(),
-                out.join("costs.md").display()
-            );
-            ExitCode::SUCCESS
-        }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
-    }
+    let (csv_path, md_path) = (out.join("costs.csv"), out.join("costs.md"));
+    write_atomic(&csv_path, costs::csv(&points).as_bytes())?;
+    write_atomic(&md_path, md.as_bytes())?;
+    eprintln!("wrote {} and {}", csv_path.display(), md_path.display());
+    Ok(())
 }

@@ -6,6 +6,7 @@ pub mod check;
 pub mod compile;
 pub mod denoise;
 pub mod diagnostic;
+pub mod error;
 pub mod ir;
 pub mod math;
 pub mod metrics;

@@ -1,9 +1,10 @@
 //! The `hyperslice` command line.
 
 use clap::{Parser, Subcommand, ValueEnum};
+use hyperslice::scene::Scene;
 use hyperslice::{At, Compilation};
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 mod bench_command;
@@ -45,6 +46,25 @@ enum Command {
     Bench(bench_command::BenchArgs),
     /// Compile a scene and print one stage of it, write it to a file, or check it against one.
     Compile(compile_command::CompileArgs),
+}
+
+/// Compile `file` for a command that renders it and print its diagnostics (in colour when
+/// `color`); the scene when it compiled.
+fn compile(file: &Path, color: bool) -> Option<Scene> {
+    let c = Compilation::from_path(file);
+    eprint!("{}", c.render_diagnostics(color));
+    c.scene
+}
+
+/// The exit status of a command that ended with `result`, its error printed.
+fn finish(result: hyperslice::error::Result<()>) -> ExitCode {
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
 }
 
 fn main() -> ExitCode {

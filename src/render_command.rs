@@ -2,11 +2,10 @@
 //! a progress bar, and write the frames.
 
 use clap::Args;
-use hyperslice::Compilation;
 use hyperslice::output::{self, OutputSettings};
 use hyperslice::render::driver::{self, Options};
 use hyperslice::render::sampler::SamplerKind;
-use hyperslice::scene::{Denoise, Quality, RenderSettings};
+use hyperslice::scene::{Denoise, Quality, RenderSettings, Scene};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -176,30 +175,32 @@ impl RenderArgs {
     }
 }
 
+/// `W x H, N frames` of a render, for a command's first line.
+pub(crate) fn extent(r: &RenderSettings) -> String {
+    let plural = if r.frames == 1 { "" } else { "s" };
+    format!("{} x {}, {} frame{plural}", r.width, r.height, r.frames)
+}
+
 pub fn run(args: RenderArgs, color: bool) -> ExitCode {
-    let c = Compilation::from_path(&args.file);
-    eprint!("{}", c.render_diagnostics(color));
-    let Some(mut scene) = c.scene else {
-        return ExitCode::FAILURE;
-    };
+    match crate::compile(&args.file, color) {
+        Some(scene) => crate::finish(render(&args, scene)),
+        None => ExitCode::FAILURE,
+    }
+}
+
+fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> {
     args.apply(&mut scene.render);
     let out = args
         .output
         .clone()
         .unwrap_or_else(|| default_output(&args.file));
     // Fail on an unwritable path before spending any time rendering.
-    if let Err(e) = output::check_writable(&out, &args.file) {
-        eprintln!("error: {e}");
-        return ExitCode::FAILURE;
-    }
+    output::check_writable(&out, &args.file)?;
     let r = &scene.render;
     eprintln!(
-        "rendering {}: {} x {}, {} frame{}, {} spp, {} bounces",
+        "rendering {}: {}, {} spp, {} bounces",
         args.file.display(),
-        r.width,
-        r.height,
-        r.frames,
-        if r.frames == 1 { "" } else { "s" },
+        extent(r),
         r.spp,
         r.bounces
     );
@@ -231,27 +232,15 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
         noise_threshold: args.noise_threshold,
         ..Options::default()
     };
-    let rendered = match driver::render(&scene, &options, &|n| bar.inc(n)) {
-        Ok(x) => x,
-        Err(e) => {
-            bar.finish_and_clear();
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let rendered = driver::render(&scene, &options, &|n| bar.inc(n));
     bar.finish_and_clear();
+    let rendered = rendered?;
     let images: Vec<_> = rendered.frames.iter().map(|f| f.image()).collect();
     let settings = OutputSettings {
         exposure: r.exposure,
         fps: r.fps,
     };
-    let written = match output::write(&out, &images, &settings) {
-        Ok(w) => w,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let written = output::write(&out, &images, &settings)?;
     let s = &rendered.stats;
     let secs = rendered.elapsed.as_secs_f64();
     let pixels = r.width as f64 * r.height as f64 * r.frames as f64;
@@ -297,7 +286,7 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
             files[files.len() - 1].display()
         ),
     }
-    ExitCode::SUCCESS
+    Ok(())
 }
 
 fn default_output(scene: &Path) -> PathBuf {

@@ -2,28 +2,11 @@
 //! pinned compiled scenes checked, and every bad request refused with a clear message before
 //! any work starts.
 
+mod common;
+
+use common::{LIT_BALL, hyperslice, scene_dir};
 use std::path::Path;
-use std::process::{Command, Output};
-
-const SCENE: &str = "render { size = 320 x 240  frames = 3  spp = 64 }
-sky = rgb(0.6, 0.7, 0.9)
-object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
-object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 5) }
-";
-
-fn hyperslice(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hyperslice"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("ran hyperslice")
-}
-
-fn setup() -> tempfile::TempDir {
-    let dir = tempfile::tempdir().expect("temp dir");
-    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
-    dir
-}
+use std::process::Output;
 
 fn stderr(o: &Output) -> String {
     String::from_utf8_lossy(&o.stderr).into_owned()
@@ -40,7 +23,7 @@ fn files(dir: &Path) -> Vec<String> {
 
 #[test]
 fn renders_an_animated_gif_with_overrides() {
-    let dir = setup();
+    let dir = scene_dir();
     let o = hyperslice(
         dir.path(),
         &[
@@ -74,7 +57,7 @@ fn renders_an_animated_gif_with_overrides() {
 
 #[test]
 fn writes_numbered_png_and_exr_frames() {
-    let dir = setup();
+    let dir = scene_dir();
     for ext in ["png", "exr"] {
         let out = format!("shot.{ext}");
         let o = hyperslice(
@@ -130,7 +113,7 @@ fn small_png(dir: &Path, out: &str, flag: &str, value: &str) -> Vec<u8> {
 
 #[test]
 fn the_same_seed_gives_the_same_file_whatever_the_threads() {
-    let dir = setup();
+    let dir = scene_dir();
     let a = small_png(dir.path(), "a.png", "--threads", "1");
     assert_eq!(a, small_png(dir.path(), "b.png", "--threads", "2"));
     // `--sampler random` is another image, and `sobol` (the default) the same one.
@@ -140,7 +123,7 @@ fn the_same_seed_gives_the_same_file_whatever_the_threads() {
 
 #[test]
 fn refuses_bad_outputs_before_rendering() {
-    let dir = setup();
+    let dir = scene_dir();
     for (out, message) in [
         ("missing/out.gif", "does not exist"),
         ("out.jpg", "unknown output format"),
@@ -156,14 +139,14 @@ fn refuses_bad_outputs_before_rendering() {
     }
     assert_eq!(
         std::fs::read_to_string(dir.path().join("scene.4ds")).unwrap(),
-        SCENE
+        LIT_BALL
     );
     assert_eq!(files(dir.path()), ["scene.4ds"]);
 }
 
 #[test]
 fn refuses_bad_flags_and_bad_scenes() {
-    let dir = setup();
+    let dir = scene_dir();
     let o = hyperslice(dir.path(), &["render", "scene.4ds", "--size", "20by10"]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("WIDTHxHEIGHT"), "{}", stderr(&o));
@@ -185,7 +168,7 @@ fn refuses_bad_flags_and_bad_scenes() {
 
 #[test]
 fn compile_writes_and_checks_the_pinned_ir() {
-    let dir = setup();
+    let dir = scene_dir();
     let d = dir.path();
     let out = hyperslice(
         d,
@@ -211,7 +194,7 @@ fn compile_writes_and_checks_the_pinned_ir() {
     assert!(same.status.success(), "{}", stderr(&same));
 
     // The lamp moves: the check fails with a diff naming the old and the new offset.
-    let moved = SCENE.replace("[1, 2, 0, 0]", "[1, 3, 0, 0]");
+    let moved = LIT_BALL.replace("[1, 2, 0, 0]", "[1, 3, 0, 0]");
     std::fs::write(d.join("scene.4ds"), moved).expect("scene written");
     let changed = hyperslice(
         d,

@@ -4,9 +4,10 @@
 //! - the ball's solid-angle sampler against its pdf (chi-square, as in
 //!   `tests/physics_samplers.rs`), and the pdf's normalisation over the cap;
 //! - which objects count as spherical lights, and where they are at any `t`;
-//! - renders with light sampling on against the closed forms of `PHYSICS.md` and against renders
-//!   with it off (BSDF sampling only), in scenes where the shadow rays meet fog, glass and
-//!   rough metal: the two estimators must agree within 4 standard errors of their difference;
+//! - renders with light sampling on against the closed forms of `docs/physics.md` ("Light
+//!   sampling (next-event estimation)") and against renders with it off (BSDF sampling only), in
+//!   scenes where the shadow rays meet fog, glass and rough metal: the two estimators must agree
+//!   within 4 standard errors of their difference;
 //! - the variance reduction, and determinism across thread counts.
 //!
 //! Every seed is fixed, so a run that passes passes every time.

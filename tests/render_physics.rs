@@ -1,5 +1,5 @@
-//! The renderer against answers known in closed form (see `../shared/design/PHYSICS.md`,
-//! "Tests the best renderers run, ported to 4D"), and its behaviour at the extremes.
+//! The renderer against answers known in closed form (see `docs/physics.md`, "The proofs
+//! (`tests/render_physics.rs`)"), and its behaviour at the extremes.
 //!
 //! Statistical checks compare a Monte Carlo mean with its expected value within 4 standard
 //! errors (a false alarm about once in 16,000 runs; every seed is fixed, so a run that passes

@@ -1,6 +1,9 @@
 //! The speed/accuracy sweep (`hyperslice bench`): the Pareto front, time-to-error
 //! interpolation, a quick sweep end to end through the library, and the command line.
 
+mod common;
+
+use common::{LIT_BALL, hyperslice, scene_dir};
 use hyperslice::Compilation;
 use hyperslice::render::sampler::SamplerKind;
 use hyperslice::scene::Scene;
@@ -8,18 +11,10 @@ use hyperslice::sweep::costs::{self, CostOptions, CostPoint, Knob};
 use hyperslice::sweep::{
     self, Family, Reach, SweepOptions, pareto_front, plot, report, time_to_error,
 };
-use std::path::Path;
-use std::process::{Command, Output};
-
-/// A lit ball under a sky: light sampling matters, and it renders in moments.
-const SCENE: &str = "render { size = 320 x 240  frames = 3  spp = 64 }
-sky = rgb(0.6, 0.7, 0.9)
-object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
-object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 5) }
-";
+use std::process::Command;
 
 fn scene() -> Scene {
-    let c = Compilation::from_source("bench.4ds", SCENE);
+    let c = Compilation::from_source("bench.4ds", LIT_BALL);
     assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
     c.scene.expect("a scene")
 }
@@ -212,8 +207,7 @@ fn quick_cost_curves_cover_every_knob_and_count_samples() {
 
 #[test]
 fn the_bench_command_writes_cost_curves() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    let dir = scene_dir();
     let o = hyperslice(
         dir.path(),
         &["bench", "scene.4ds", "--costs", "--quick", "--out", "out"],
@@ -333,26 +327,21 @@ fn a_reference_from_exr_must_match_the_sweep() {
     );
     assert_eq!(reference.noise, None);
     r.width = 16;
-    let e = sweep::load_reference(&path, &r).expect_err("wrong size");
+    let e = sweep::load_reference(&path, &r)
+        .expect_err("wrong size")
+        .to_string();
     assert!(e.contains("is 32x24 but the sweep renders 16x24"), "{e}");
     r.width = 32;
     r.frames = 2;
-    let e = sweep::load_reference(&path, &r).expect_err("one frame");
+    let e = sweep::load_reference(&path, &r)
+        .expect_err("one frame")
+        .to_string();
     assert!(e.contains("one frame but the sweep renders 2"), "{e}");
-}
-
-fn hyperslice(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hyperslice"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .expect("ran hyperslice")
 }
 
 #[test]
 fn the_bench_command_writes_its_results() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    let dir = scene_dir();
     let o = hyperslice(
         dir.path(),
         &[
@@ -378,8 +367,7 @@ fn the_bench_command_writes_its_results() {
 
 #[test]
 fn the_bench_command_refuses_an_unwritable_out_before_rendering() {
-    let dir = tempfile::tempdir().expect("temp dir");
-    std::fs::write(dir.path().join("scene.4ds"), SCENE).expect("scene written");
+    let dir = scene_dir();
     std::fs::write(dir.path().join("taken"), "a file").expect("file written");
     let o = hyperslice(
         dir.path(),
@@ -435,7 +423,9 @@ fn plot_in_a_process_without_fonts() {
         return;
     }
     let rows = synthetic_rows();
-    let e = plot::draw(&rows, 300, 200, Some("title")).expect_err("no font is registered");
+    let e = plot::draw(&rows, 300, 200, Some("title"))
+        .expect_err("no font is registered")
+        .to_string();
     assert!(e.contains("Font"), "{e}");
     let pixels = plot::draw(&rows, 300, 200, None).expect("drawn without text");
     assert!(pixels.iter().any(|&p| p != 255), "something is drawn");

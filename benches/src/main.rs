@@ -1,4 +1,5 @@
-//! The SDF evaluation benchmark (docs: ../shared/design/PERFORMANCE.md in the project notes).
+//! The SDF evaluation benchmark (docs: `docs/performance.md`, "SDF evaluation: the VM against
+//! native Rust and fidget").
 //!
 //! Every scene is evaluated over two point sets (uniform random points, and the points a sphere
 //! tracer visits) by every contender: native scalar and packet code, fidget's interpreter and JIT,

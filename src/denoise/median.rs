@@ -6,7 +6,7 @@
 //! values are left out; a channel with no finite value in its window keeps its value. With an
 //! even count the median is the mean of the two middle values.
 //!
-//! Known flaws (`PHYSICS.md`, "Denoising"), which is why a-trous is the filter to use:
+//! Known flaws (`docs/physics.md`, "Denoising"), which is why a-trous is the filter to use:
 //! - Monte Carlo noise is skewed (many dark samples, a few bright ones), so a pixel's mean has a
 //!   median below its mean and the median filter is **biased dark**: with 10% of the samples at
 //!   10 and the rest at 0 (mean 1), the filtered image of 3 frames is 1.6% too dark at 64 samples

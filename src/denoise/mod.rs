@@ -8,7 +8,7 @@
 //! when it has any, else left as it was. A film whose buffers disagree with its `width * height`
 //! is left alone and is nobody's temporal neighbour; neither filter panics on any input.
 //!
-//! See `PHYSICS.md`, "Denoising": the median is biased dark on skewed Monte Carlo noise and
+//! See `docs/physics.md`, "Denoising": the median is biased dark on skewed Monte Carlo noise and
 //! erodes thin features, so it is kept as an option and as a firefly detector; a-trous is the
 //! filter to use.
 

@@ -6,7 +6,7 @@
 
 mod gif;
 mod openexr;
-mod png;
+pub(crate) mod png;
 pub mod tonemap;
 
 use std::ffi::OsString;
@@ -478,10 +478,7 @@ fn write_temp(
     path: &Path,
     fill: impl FnOnce(&mut BufWriter<&mut fs::File>) -> Result<(), OutputError>,
 ) -> Result<TempPath, OutputError> {
-    let io_err = |source| OutputError::Io {
-        path: path.to_path_buf(),
-        source,
-    };
+    let io_err = io_error(path);
     let mut tmp = NamedTempFile::new_in(dir_for_io(parent_dir(path))).map_err(io_err)?;
     {
         let mut w = BufWriter::new(tmp.as_file_mut());
@@ -510,12 +507,29 @@ fn write_numbered(
         .map(|(i, target)| write_temp(target, |w| encode(i, w)))
         .collect::<Result<_, _>>()?;
     for (tmp, target) in temps.into_iter().zip(&targets) {
-        tmp.persist(target).map_err(|e| OutputError::Io {
-            path: target.clone(),
-            source: e.error,
-        })?;
+        persist(tmp, target)?;
     }
     Ok(targets)
+}
+
+/// Move a finished temporary file to `target`.
+fn persist(tmp: TempPath, target: &Path) -> Result<(), OutputError> {
+    tmp.persist(target).map_err(|e| io_error(target)(e.error))
+}
+
+/// Write `bytes` to `path` atomically: into a temporary file beside it, flushed to disk, then
+/// renamed over `path`.
+pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    let tmp = write_temp(path, |w| w.write_all(bytes).map_err(io_error(path)))?;
+    persist(tmp, path)
+}
+
+/// [`OutputError::Io`] on `path`.
+fn io_error(path: &Path) -> impl Fn(io::Error) -> OutputError + Copy + '_ {
+    move |source| OutputError::Io {
+        path: path.to_path_buf(),
+        source,
+    }
 }
 
 /// Write all frames: `.gif` -> one animated, infinitely looping GIF at `fps`; `.png` -> numbered
@@ -620,10 +634,7 @@ fn write_gif(
             settings.fps,
         )
         .map_err(|e| match e {
-            ::gif::EncodingError::Io(source) => OutputError::Io {
-                path: path.to_path_buf(),
-                source,
-            },
+            ::gif::EncodingError::Io(source) => io_error(path)(source),
             e => OutputError::Encode {
                 path: path.to_path_buf(),
                 format: Format::Gif,
@@ -632,10 +643,7 @@ fn write_gif(
         })?;
         Ok(())
     })?;
-    tmp.persist(path).map_err(|e| OutputError::Io {
-        path: path.to_path_buf(),
-        source: e.error,
-    })?;
+    persist(tmp, path)?;
     Ok(Written {
         files: vec![path.to_path_buf()],
         gif_psnr: Some(psnr),

@@ -12,6 +12,7 @@ use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
 use super::sampler::SamplerKind;
 use crate::compile::{Compiled, frame_time};
+use crate::error::{Error, Result};
 use crate::scene::Scene;
 use glam::DVec4;
 use rayon::prelude::*;
@@ -124,15 +125,13 @@ pub fn render(
     scene: &Scene,
     options: &Options,
     progress: &(dyn Fn(u64) + Sync),
-) -> Result<Rendered, String> {
+) -> Result<Rendered> {
     let start = Instant::now();
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
         builder = builder.num_threads(n);
     }
-    let pool = builder
-        .build()
-        .map_err(|e| format!("cannot start worker threads: {e}"))?;
+    let pool = builder.build().map_err(Error::Threads)?;
     let r = &scene.render;
     let compiled = Compiled::new(scene);
     let mut features = Features::of(&compiled);

@@ -1,9 +1,9 @@
 //! Sampling building blocks for light transport in four dimensions.
 //!
-//! Every formula here is the one in the physics design notes (`PHYSICS.md`); the 3D habits that
-//! are wrong in 4D are called out where they would creep in. Samplers take their
-//! random numbers as a `DVec3` of independent uniforms in `[0, 1)` so that they stay
-//! deterministic functions, easy to test and to feed with quasi-random points.
+//! Every formula here is the 4D one of `docs/physics.md` ("Surfaces", "Media", "Light
+//! sampling"); the 3D habits that are wrong in 4D are called out where they would creep in.
+//! Samplers take their random numbers as a `DVec3` of independent uniforms in `[0, 1)` so that
+//! they stay deterministic functions, easy to test and to feed with quasi-random points.
 //!
 //! Local frames put the surface normal (or a lobe's axis) on the **fourth axis, e4 = `w`**: a
 //! direction `(x, y, z, w)` in a local frame has `cos(theta) = w`, and `(x, y, z)` is its

@@ -10,8 +10,9 @@
 //! The object curve renders a generated scene (a floor, a lamp and `n` hyperspheres on a 4D
 //! grid), since a user's scene has the objects it has; the other curves render the given scene.
 
-use super::median;
+use super::{median, sig};
 use crate::Compilation;
+use crate::error::{Error, Result};
 use crate::render::driver::{self, Options};
 use crate::scene::{Denoise, Scene};
 use std::fmt::Write as _;
@@ -158,7 +159,7 @@ pub fn cost_curves(
     scene: &Scene,
     opts: &CostOptions,
     progress: &mut dyn FnMut(CostProgress),
-) -> Result<Vec<CostPoint>, String> {
+) -> Result<Vec<CostPoint>> {
     let mut base = scene.clone();
     let r = &mut base.render;
     (r.width, r.height) = opts.size;
@@ -190,10 +191,10 @@ pub fn cost_curves(
     for &n in &opts.object_list {
         let c = Compilation::from_source("objects.4ds", &objects_scene(n));
         let Some(mut s) = c.scene else {
-            return Err(format!(
-                "the generated scene of {n} objects does not compile:\n{}",
-                c.render_diagnostics(false)
-            ));
+            return Err(Error::Compile {
+                scene: format!("the generated scene of {n} objects"),
+                diagnostics: c.render_diagnostics(false),
+            });
         };
         s.render = base.render.clone();
         plan.push((Knob::Objects, n as u64, s, opts.threads));
@@ -280,7 +281,7 @@ pub fn markdown(points: &[CostPoint]) -> String {
                 out,
                 "| {} | {} | {:.2} | {:.0} |",
                 p.x,
-                super::report::sig(p.time, 3),
+                sig(p.time, 3),
                 per_unit(p) / per_unit(first),
                 p.evaluations_per_sample
             );

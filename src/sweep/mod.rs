@@ -1,11 +1,12 @@
-//! Speed against accuracy (`hyperslice bench`, see `PERFORMANCE.md`, "The speed/accuracy
-//! trade"): a reference render, then a sweep of configurations, each rendered once, timed, and
-//! compared with the reference (RMSE, PSNR, SSIM, mean luminance bias).
+//! Speed against accuracy (`hyperslice bench`, see `docs/performance.md`, "Speed against
+//! accuracy: `hyperslice bench`"): a reference render, then a sweep of configurations, each
+//! rendered, timed, and compared with the reference (RMSE, PSNR, SSIM, mean luminance bias).
 //!
 //! The families swept: samples per pixel with light sampling on and no denoiser (the baseline
 //! curve, with the default Sobol sampler); the same without light sampling; the same with
-//! independent random numbers; the median and a-trous denoisers on top of the baseline; marching epsilon, marching step limit and bounce depth at a middle sample count;
-//! the quality presets. Every configuration renders with the scene's seed and the reference
+//! independent random numbers; the median and a-trous denoisers on top of the baseline; marching
+//! epsilon, marching step limit and bounce depth at a middle sample count; the quality presets.
+//! Every configuration renders with the scene's seed and the reference
 //! with a different one (`seed + REFERENCE_SEED_OFFSET`), so the reference's noise is
 //! independent of every configuration's. Only the denoiser families denoise, whatever the
 //! scene's `denoise` says. Renders are deterministic, so repeating one changes only its time:
@@ -19,6 +20,7 @@ pub mod costs;
 pub mod plot;
 pub mod report;
 
+use crate::error::{Error, Result};
 use crate::metrics::{self, ImageError};
 use crate::render::driver::{self, Options};
 use crate::render::sampler::SamplerKind;
@@ -265,26 +267,30 @@ pub fn plan(base: &RenderSettings, opts: &SweepOptions) -> Vec<Config> {
             });
         }
     }
-    let scene_mark = |same: bool| if same { " (scene)" } else { "" };
+    // A single-setting configuration, its label marked when the setting is the scene's.
+    let at_mid = |family, label: String, scene: bool| {
+        let mark = if scene { " (scene)" } else { "" };
+        Config::base(family, label + mark, base, mid)
+    };
     for &e in &opts.epsilons {
-        let label = format!("epsilon {e:e}{}", scene_mark(e == base.epsilon));
+        let label = format!("epsilon {e:e}");
         out.push(Config {
             epsilon: e,
-            ..Config::base(Family::Epsilon, label, base, mid)
+            ..at_mid(Family::Epsilon, label, e == base.epsilon)
         });
     }
     for &s in &opts.max_steps {
-        let label = format!("max steps {s}{}", scene_mark(s == base.max_steps));
+        let label = format!("max steps {s}");
         out.push(Config {
             max_steps: s,
-            ..Config::base(Family::MaxSteps, label, base, mid)
+            ..at_mid(Family::MaxSteps, label, s == base.max_steps)
         });
     }
     for &b in &opts.bounces {
-        let label = format!("bounces {b}{}", scene_mark(b == base.bounces));
+        let label = format!("bounces {b}");
         out.push(Config {
             bounces: b,
-            ..Config::base(Family::Bounces, label, base, mid)
+            ..at_mid(Family::Bounces, label, b == base.bounces)
         });
     }
     for &q in &opts.presets {
@@ -355,11 +361,7 @@ pub fn reference_settings(configs: &[Config], r: &RenderSettings) -> RenderSetti
 /// per pixel, light sampling on, no denoiser, seed `seed + REFERENCE_SEED_OFFSET`, and
 /// independent random numbers, so that its pixels' standard errors (which assume independent
 /// samples) measure its own error honestly.
-pub fn render_reference(
-    scene: &Scene,
-    spp: u32,
-    threads: Option<usize>,
-) -> Result<Reference, String> {
+pub fn render_reference(scene: &Scene, spp: u32, threads: Option<usize>) -> Result<Reference> {
     let mut scene = scene.clone();
     let r = &mut scene.render;
     r.spp = spp;
@@ -399,7 +401,7 @@ pub fn render_reference(
 /// exist) the numbered frames `stem_0000.exr`, `stem_0001.exr`, ... beside it, as `render`
 /// writes them. The first RGBA layer is read and divided by the scene's exposure (which
 /// `render` multiplies EXRs by); it must match the sweep's size and frame count.
-pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference, String> {
+pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference> {
     let frames = r.frames as usize;
     let files: Vec<PathBuf> = if frames == 1 && path.is_file() {
         vec![path.to_path_buf()]
@@ -409,15 +411,19 @@ pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference, Stri
             .collect();
         if let Some(missing) = numbered.iter().find(|p| !p.is_file()) {
             return Err(if frames == 1 && !numbered[0].is_file() {
-                format!("reference `{}` does not exist", path.display())
+                Error::ReferenceMissing {
+                    path: path.to_path_buf(),
+                }
             } else if path.is_file() {
-                format!(
-                    "reference `{}` is one frame but the sweep renders {frames} (give --frames 1, or numbered frames like `{}`)",
-                    path.display(),
-                    numbered[0].display()
-                )
+                Error::ReferenceOneFrame {
+                    path: path.to_path_buf(),
+                    frames,
+                    numbered: numbered[0].clone(),
+                }
             } else {
-                format!("reference frame `{}` does not exist", missing.display())
+                Error::ReferenceFrameMissing {
+                    path: missing.clone(),
+                }
             });
         }
         numbered
@@ -442,24 +448,21 @@ pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference, Stri
                 px[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
             },
         )
-        .map_err(|e| format!("cannot read reference `{}`: {e}", file.display()))?;
+        .map_err(|source| Error::ReferenceUnreadable {
+            path: file.clone(),
+            source,
+        })?;
         let size = image.layer_data.size;
         if (size.width(), size.height()) != (width, height) {
-            return Err(format!(
-                "reference `{}` is {}x{} but the sweep renders {width}x{height} (give --size {}x{})",
-                file.display(),
-                size.width(),
-                size.height(),
-                size.width(),
-                size.height()
-            ));
+            return Err(Error::ReferenceSize {
+                path: file.clone(),
+                size: (size.width(), size.height()),
+                expected: (width, height),
+            });
         }
         let pixels = image.layer_data.channel_data.pixels.1;
         if pixels.iter().any(|c| !c.is_finite()) {
-            return Err(format!(
-                "reference `{}` holds NaN or infinite pixels",
-                file.display()
-            ));
+            return Err(Error::ReferenceNotFinite { path: file.clone() });
         }
         out.push(pixels.into_iter().map(|c| c * scale).collect());
     }
@@ -506,23 +509,18 @@ pub fn measure(
     reference: &Reference,
     threads: Option<usize>,
     repeats: u32,
-) -> Result<Row, String> {
+) -> Result<Row> {
     let mut scene = scene.clone();
     config.apply(&mut scene.render);
     let r = &scene.render;
     if (r.width as usize, r.height as usize, r.frames as usize)
         != (reference.width, reference.height, reference.frames.len())
     {
-        return Err(format!(
-            "the reference is {}x{} with {} frames but `{}` renders {}x{} with {}",
-            reference.width,
-            reference.height,
-            reference.frames.len(),
-            config.label,
-            r.width,
-            r.height,
-            r.frames
-        ));
+        return Err(Error::ReferenceMismatch {
+            reference: (reference.width, reference.height, reference.frames.len()),
+            config: config.label.clone(),
+            renders: (r.width, r.height, r.frames),
+        });
     }
     let options = Options {
         threads,
@@ -629,12 +627,12 @@ pub fn bench(
     opts: &SweepOptions,
     reference_file: Option<&Path>,
     progress: &mut dyn FnMut(Progress),
-) -> Result<Bench, String> {
+) -> Result<Bench> {
     let mut scene = scene.clone();
     scene.render = opts.settings(&scene.render);
     let configs = plan(&scene.render, opts);
     if configs.is_empty() {
-        return Err("nothing to measure: the sample-count list is empty".into());
+        return Err(Error::NothingToMeasure);
     }
     let reference = match reference_file {
         Some(path) => load_reference(path, &scene.render)?,
@@ -686,6 +684,30 @@ pub fn median(v: &mut [f64]) -> f64 {
         v[n / 2]
     } else {
         0.5 * (v[n / 2 - 1] + v[n / 2])
+    }
+}
+
+/// A number to `digits` significant digits, fixed-point when that stays short (for tables,
+/// progress lines and the plot's tick labels).
+pub fn sig(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "NaN".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-3..5).contains(&mag) {
+        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = digits.saturating_sub(1))
     }
 }
 

@@ -3,8 +3,9 @@
 //! single-setting families, and each panel's Pareto front as a dashed line. Text needs a font
 //! from the system; without one the plot is drawn without text.
 
-use super::report::{sig, write_atomic};
-use super::{Family, Metric, Row, pareto_front};
+use super::{Family, Metric, Row, pareto_front, sig};
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
 use plotters::prelude::*;
@@ -35,26 +36,25 @@ pub const FONT_PATHS: &[&str] = &[
 ];
 
 /// Register the first font of [`FONT_PATHS`] that exists and parses (once per process).
-pub fn font() -> Result<(), String> {
-    static FOUND: OnceLock<Result<(), String>> = OnceLock::new();
-    FOUND
-        .get_or_init(|| {
-            for path in FONT_PATHS {
-                let Ok(bytes) = std::fs::read(path) else {
-                    continue;
-                };
-                // plotters keeps fonts for the life of the process.
-                let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
-                if register_font(FONT, FontStyle::Normal, bytes).is_ok() {
-                    return Ok(());
-                }
-            }
-            Err(format!(
-                "no usable font was found (looked for {})",
-                FONT_PATHS.join(", ")
-            ))
+pub fn font() -> Result<()> {
+    static FOUND: OnceLock<bool> = OnceLock::new();
+    let found = *FOUND.get_or_init(|| {
+        FONT_PATHS.iter().any(|path| {
+            let Ok(bytes) = std::fs::read(path) else {
+                return false;
+            };
+            // plotters keeps fonts for the life of the process.
+            let bytes: &'static [u8] = Box::leak(bytes.into_boxed_slice());
+            register_font(FONT, FontStyle::Normal, bytes).is_ok()
         })
-        .clone()
+    });
+    if found {
+        Ok(())
+    } else {
+        Err(Error::NoFont {
+            looked_for: FONT_PATHS,
+        })
+    }
 }
 
 /// How the plot came out.
@@ -97,24 +97,25 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo..hi
 }
 
-fn err(e: &dyn std::fmt::Display) -> String {
-    format!("cannot draw the plot: {e}")
+/// [`Error::Plot`] from what plotters reports.
+fn err(e: impl std::error::Error + Send + Sync + 'static) -> Error {
+    Error::Plot(Box::new(e))
 }
 
 /// The plot as RGB8 pixels, `width * height * 3` bytes: the linear-RMSE panel on the left, the
 /// display-RMSE panel on the right. `title` `None` draws no text at all (no title, tick
 /// labels, axis names or legend); each panel's caption is `title: <metric> against time`.
-pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Result<Vec<u8>, String> {
+pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Result<Vec<u8>> {
     let mut buf = vec![255u8; width as usize * height as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
-        root.fill(&WHITE).map_err(|e| err(&e))?;
+        root.fill(&WHITE).map_err(err)?;
         let (left, right) = root.split_horizontally(width / 2);
         for (area, metric) in [(left, Metric::Rmse), (right, Metric::DisplayRmse)] {
             let caption = title.map(|t| format!("{t}: {} against time", metric.name()));
             panel(&area, rows, caption.as_deref(), metric)?;
         }
-        root.present().map_err(|e| err(&e))?;
+        root.present().map_err(err)?;
     }
     Ok(buf)
 }
@@ -125,7 +126,7 @@ fn panel(
     rows: &[Row],
     title: Option<&str>,
     metric: Metric,
-) -> Result<(), String> {
+) -> Result<()> {
     let y = |r: &Row| metric.of(&r.error);
     let valid = |r: &&Row| r.time.is_finite() && r.time > 0.0 && y(r).is_finite() && y(r) > 0.0;
     let shown: Vec<&Row> = rows.iter().filter(valid).collect();
@@ -143,7 +144,7 @@ fn panel(
     }
     let mut chart = builder
         .build_cartesian_2d(xs.clone().log_scale(), ys.clone().log_scale())
-        .map_err(|e| err(&e))?;
+        .map_err(err)?;
     // Tick labels at 1, 2 and 5 times powers of ten only (the other ticks stay unlabelled).
     let label = |v: &f64| {
         let lead = *v / 10f64.powf(v.log10().floor());
@@ -171,7 +172,7 @@ fn panel(
     } else {
         mesh.disable_axes();
     }
-    mesh.draw().map_err(|e| err(&e))?;
+    mesh.draw().map_err(err)?;
     if title.is_none() {
         // The axes, without their tick labels.
         let frame = [(xs.start, ys.start), (xs.end, ys.end)];
@@ -180,7 +181,7 @@ fn panel(
                 frame,
                 BLACK.stroke_width(1),
             )))
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
     }
 
     for family in Family::ALL {
@@ -203,39 +204,39 @@ fn panel(
         if family.is_curve() {
             chart
                 .draw_series(LineSeries::new(pts.clone(), c.stroke_width(2)))
-                .map_err(|e| err(&e))?
+                .map_err(err)?
                 .label(name)
                 .legend(move |(x, y)| {
                     PathElement::new(vec![(x, y), (x + 20, y)], c.stroke_width(2))
                 });
             chart
                 .draw_series(pts.iter().map(|&p| Circle::new(p, 4, c.filled())))
-                .map_err(|e| err(&e))?;
+                .map_err(err)?;
         } else {
             // Each family its own marker, in the plot and in the legend.
             match family {
                 Family::Epsilon => chart
                     .draw_series(pts.iter().map(|&p| TriangleMarker::new(p, 7, c.filled())))
-                    .map_err(|e| err(&e))?
+                    .map_err(err)?
                     .label(name)
                     .legend(move |(x, y)| TriangleMarker::new((x + 10, y), 7, c.filled())),
                 Family::MaxSteps => chart
                     .draw_series(pts.iter().map(|&p| Cross::new(p, 6, c.stroke_width(2))))
-                    .map_err(|e| err(&e))?
+                    .map_err(err)?
                     .label(name)
                     .legend(move |(x, y)| Cross::new((x + 10, y), 6, c.stroke_width(2))),
                 Family::Bounces => chart
                     .draw_series(pts.iter().map(|&p| {
                         EmptyElement::at(p) + Rectangle::new([(-5, -5), (5, 5)], c.filled())
                     }))
-                    .map_err(|e| err(&e))?
+                    .map_err(err)?
                     .label(name)
                     .legend(move |(x, y)| {
                         Rectangle::new([(x + 5, y - 5), (x + 15, y + 5)], c.filled())
                     }),
                 _ => chart
                     .draw_series(pts.iter().map(|&p| Circle::new(p, 7, c.filled())))
-                    .map_err(|e| err(&e))?
+                    .map_err(err)?
                     .label(name)
                     .legend(move |(x, y)| Circle::new((x + 10, y), 7, c.filled())),
             };
@@ -253,7 +254,7 @@ fn panel(
     if !front.is_empty() {
         chart
             .draw_series(DashedLineSeries::new(front, 8, 5, BLACK.stroke_width(2)))
-            .map_err(|e| err(&e))?
+            .map_err(err)?
             .label("Pareto front")
             .legend(|(x, y)| {
                 DashedPathElement::new(vec![(x, y), (x + 20, y)], 6, 3, BLACK.stroke_width(2))
@@ -268,24 +269,22 @@ fn panel(
             .border_style(BLACK)
             .label_font((FONT, 15))
             .draw()
-            .map_err(|e| err(&e))?;
+            .map_err(err)?;
     }
     Ok(())
 }
 
 /// Encode RGB8 pixels as PNG.
-fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>, String> {
-    use image::ImageEncoder;
+fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
     let mut out = vec![];
-    image::codecs::png::PngEncoder::new(&mut out)
-        .write_image(pixels, width, height, image::ExtendedColorType::Rgb8)
-        .map_err(|e| format!("cannot encode the plot as PNG: {e}"))?;
+    crate::output::png::encode(&mut out, pixels.as_chunks().0, width, height)
+        .map_err(Error::PlotEncoding)?;
     Ok(out)
 }
 
 /// Draw the plot and write it to `path` as PNG (atomically). Without a font, or when drawing
 /// text fails, the plot is drawn without text and the outcome says why.
-pub fn write_png(rows: &[Row], path: &Path, title: &str) -> Result<PlotOutcome, String> {
+pub fn write_png(rows: &[Row], path: &Path, title: &str) -> Result<PlotOutcome> {
     let (pixels, note) = match font().and_then(|()| draw(rows, WIDTH, HEIGHT, Some(title))) {
         Ok(p) => (p, None),
         Err(why) => (

@@ -1,10 +1,11 @@
 //! A sweep's results as CSV and Markdown, and writing them (with the plot) into a directory,
 //! every file atomically (a temporary file beside it, renamed into place once complete).
 
-use super::{Bench, Family, Metric, Reach, Row};
+use super::{Bench, Family, Metric, Reach, Row, sig};
+use crate::error::{Error, Result};
+use crate::output::write_atomic;
 use crate::scene::Denoise;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::{Path, PathBuf};
 
 /// What the Markdown report says about how the numbers were made.
@@ -36,29 +37,6 @@ pub fn machine() -> String {
         std::env::consts::OS,
         std::env::consts::ARCH
     )
-}
-
-/// A number to `digits` significant digits, fixed-point when that stays short.
-pub fn sig(x: f64, digits: usize) -> String {
-    if !x.is_finite() {
-        return if x.is_nan() {
-            "NaN".into()
-        } else if x > 0.0 {
-            "inf".into()
-        } else {
-            "-inf".into()
-        };
-    }
-    if x == 0.0 {
-        return "0".into();
-    }
-    let mag = x.abs().log10().floor() as i32;
-    if (-3..5).contains(&mag) {
-        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.prec$e}", prec = digits.saturating_sub(1))
-    }
 }
 
 fn denoise_name(d: Denoise) -> &'static str {
@@ -266,38 +244,19 @@ pub fn markdown(bench: &Bench, ctx: &Context) -> String {
     out
 }
 
-/// Write `bytes` to `path` atomically: into a temporary file in the same directory, flushed to
-/// disk, then renamed over `path`.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    let err = |e: &dyn std::fmt::Display| format!("cannot write `{}`: {e}", path.display());
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(|e| err(&e))?;
-    tmp.write_all(bytes).map_err(|e| err(&e))?;
-    tmp.as_file().sync_all().map_err(|e| err(&e))?;
-    tmp.persist(path).map_err(|e| err(&e.error))?;
-    Ok(())
-}
-
 /// Make sure results can be written into `dir` before any rendering: create it if needed and
 /// check a file can be created there (the probe is removed at once).
-pub fn prepare_out_dir(dir: &Path) -> Result<(), String> {
+pub fn prepare_out_dir(dir: &Path) -> Result<()> {
+    let path = dir.to_path_buf();
     if dir.exists() && !dir.is_dir() {
-        return Err(format!(
-            "cannot write results into `{}`: it is not a directory",
-            dir.display()
-        ));
+        return Err(Error::NotADirectory { path });
     }
-    std::fs::create_dir_all(dir)
-        .map_err(|e| format!("cannot create directory `{}`: {e}", dir.display()))?;
-    tempfile::NamedTempFile::new_in(dir).map(drop).map_err(|e| {
-        format!(
-            "cannot write results into `{}`: directory is not writable ({e})",
-            dir.display()
-        )
-    })
+    if let Err(source) = std::fs::create_dir_all(dir) {
+        return Err(Error::CreateDirectory { path, source });
+    }
+    tempfile::NamedTempFile::new_in(dir)
+        .map(drop)
+        .map_err(|source| Error::DirectoryNotWritable { path, source })
 }
 
 /// What [`write_results`] wrote.
@@ -311,7 +270,7 @@ pub struct Written {
 }
 
 /// Write `results.csv`, `results.md` and `plot.png` into `dir` (which must exist).
-pub fn write_results(dir: &Path, bench: &Bench, ctx: &Context) -> Result<Written, String> {
+pub fn write_results(dir: &Path, bench: &Bench, ctx: &Context) -> Result<Written> {
     let csv_path = dir.join("results.csv");
     let md_path = dir.join("results.md");
     let plot_path = dir.join("plot.png");

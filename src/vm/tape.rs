@@ -43,7 +43,7 @@ pub enum Instr {
         a: Reg,
         b: Reg,
     },
-    /// |v + r[0..4]| - r[4]
+    /// `|v + r[0..4]| - r[4]`
     Length {
         d: Reg,
         v: [Reg; 4],
@@ -54,7 +54,7 @@ pub enum Instr {
         v: [Reg; 4],
         r: [f32; 5],
     },
-    /// The hyperbox distance at v + r[0..4] with half-extents r[4..8], minus r[8].
+    /// The hyperbox distance at `v + r[0..4]` with half-extents `r[4..8]`, minus `r[8]`.
     Box {
         d: Reg,
         v: [Reg; 4],

@@ -1,5 +1,6 @@
 //! Helpers shared by the test files: quadrature and the chi-square distribution for sampler
-//! tests, and rendering a scene from source with the checks every render must pass.
+//! tests, rendering a scene from source with the checks every render must pass, and running the
+//! command line on a small scene.
 #![allow(dead_code)] // each test file uses a different subset
 
 use glam::DVec3;
@@ -9,6 +10,8 @@ use hyperslice::scene::Denoise;
 use rand::Rng;
 use rand_pcg::Pcg64Mcg;
 use std::f64::consts::PI;
+use std::path::Path;
+use std::process::{Command, Output};
 use std::time::Duration;
 
 /// Composite 5-point Gauss-Legendre quadrature on `[a, b]` with `panels` equal panels: exact
@@ -201,4 +204,27 @@ pub fn assert_means_agree(what: &str, a: &Rendered, b: &Rendered) -> (DVec3, DVe
         );
     }
     (s1, s2)
+}
+
+/// A lit ball under a sky: light sampling matters, and it renders in moments.
+pub const LIT_BALL: &str = "render { size = 320 x 240  frames = 3  spp = 64 }
+sky = rgb(0.6, 0.7, 0.9)
+object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
+object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0]) material = light(intensity: 5) }
+";
+
+/// A temporary directory holding [`LIT_BALL`] as `scene.4ds`.
+pub fn scene_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(dir.path().join("scene.4ds"), LIT_BALL).expect("scene written");
+    dir
+}
+
+/// Run the `hyperslice` binary in `dir` with `args`.
+pub fn hyperslice(dir: &Path, args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("ran hyperslice")
 }
