@@ -1,22 +1,100 @@
-//! hyperslice: a renderer for four-dimensional scenes written in the `.4ds` language.
+//! hyperslice renders four-dimensional scenes written in the `.4ds` language: it path-traces the
+//! 3D hyperplane slice of a 4D world that a camera sees, one slice per frame of an animation.
 //!
-//! The pipeline runs one way: source -> tokens -> AST -> typed scene (see `docs/`).
+//! # The pipeline
+//!
+//! Data flows one way; each stage owns one module and reads only what the stage before hands it:
+//!
+//! ```text
+//! .4ds source --syntax--> AST --check--> typed scene (scene::Scene)
+//!   --compile--> per-frame programs: SDF IR (ir), optimised, as bytecode tapes (vm)
+//!   --render--> films (render::film) --denoise--> --output--> GIF / PNG / EXR
+//! ```
+//!
+//! - [`Compilation`] loads a file (with its imports) or a string, parses it, checks it and
+//!   holds every diagnostic and, without errors, the typed [`Scene`](scene::Scene): shapes,
+//!   materials, lattices and settings as Rust types, with values that depend on the point, the
+//!   normal or the frame variable `t` as field expressions.
+//! - [`Compiled`] lowers the scene once; for each frame it folds `t` in, optimises and compiles
+//!   the tapes the renderer runs, and places the lights. `hyperslice compile --emit ir|bytecode`
+//!   prints exactly these.
+//! - [`render()`] path-traces every frame on a thread pool (bit-identical whatever the number of
+//!   threads), reporting progress and stopping when asked; [`write()`] encodes the frames.
+//!
+//! Every fallible step returns [`Result`] with the one [`Error`] type. The stages' own modules
+//! stay public for tests and benchmarks, but the items above are the API.
+//!
+//! # Example
+//!
+//! Compile a scene from a string, render one tiny frame and look at its pixels: a black ball
+//! in front of the camera, under a white sky.
+//!
+//! ```
+//! use hyperslice::{Compilation, Monitor, RenderOptions};
+//!
+//! let source = r#"
+//!     render { size = 16 x 12  spp = 4  denoise = "none" }
+//!     sky = rgb(1)
+//!     object ball { shape = hypersphere(1) material = diffuse(albedo: 0) }
+//! "#;
+//! let scene = Compilation::from_source("ball.4ds", source).into_scene()?;
+//! let progress = |_samples: u64| {};
+//! let monitor = Monitor { progress: &progress, cancel: None };
+//! let rendered = hyperslice::render(&scene, &RenderOptions::default(), monitor)?;
+//!
+//! let film = &rendered.frames[0];
+//! let at = |x: usize, y: usize| film.color[y * film.width + x];
+//! assert_eq!(at(0, 0).x, 1.0); // the corner sees the sky
+//! assert!(at(8, 6).x < 0.01); // the centre sees the black ball
+//! # Ok::<(), hyperslice::Error>(())
+//! ```
+//!
+//! See `docs/language.md` for the language, `docs/physics.md` for what is computed, and
+//! `docs/ir-and-vm.md` for the compiled forms and how to pin them in your own tests.
 
+#[doc(hidden)]
 pub mod check;
 pub mod compile;
+#[doc(hidden)]
 pub mod denoise;
 pub mod diagnostic;
 pub mod error;
+#[doc(hidden)]
 pub mod ir;
+#[doc(hidden)]
 pub mod math;
+#[doc(hidden)]
 pub mod metrics;
 pub mod output;
 pub mod render;
 pub mod scene;
 pub mod source;
+#[doc(hidden)]
 pub mod sweep;
+#[doc(hidden)]
 pub mod syntax;
+#[doc(hidden)]
 pub mod vm;
+
+pub use compile::Compiled;
+pub use error::{Error, Result};
+pub use render::driver::{Monitor, Options as RenderOptions, Rendered};
+
+/// Render every frame of `scene`, telling `monitor` of progress and stopping when it says so.
+pub fn render(scene: &scene::Scene, options: &RenderOptions, monitor: Monitor) -> Result<Rendered> {
+    render::driver::render_monitored(scene, options, monitor)
+}
+
+/// Write rendered frames to `path` (`.gif`, `.png` or `.exr`, by its extension) with the
+/// scene's exposure and frame rate; the file appears whole or not at all.
+pub fn write(path: &Path, rendered: &Rendered, scene: &scene::Scene) -> Result<output::Written> {
+    let images: Vec<_> = rendered.frames.iter().map(|f| f.image()).collect();
+    let settings = output::OutputSettings {
+        exposure: scene.render.exposure,
+        fps: scene.render.fps,
+    };
+    Ok(output::write(path, &images, &settings)?)
+}
 
 use diagnostic::Diagnostic;
 use source::SourceMap;
@@ -67,6 +145,18 @@ impl Compilation {
     /// Compile text held in memory; imports resolve relative to the current directory.
     pub fn from_source(name: &str, text: &str) -> Compilation {
         check::compile_source(name, text).into()
+    }
+
+    /// The typed scene, or [`Error::Compile`] with every diagnostic when it has errors.
+    pub fn into_scene(self) -> Result<scene::Scene> {
+        match self.scene {
+            Some(scene) if !self.has_errors() => Ok(scene),
+            _ => Err(Error::Compile {
+                scene: (self.sources.files().next())
+                    .map_or_else(|| "the scene".to_string(), |(_, f)| f.name.clone()),
+                diagnostics: self.render_diagnostics(false),
+            }),
+        }
     }
 
     pub fn has_errors(&self) -> bool {

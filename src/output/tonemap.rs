@@ -31,7 +31,7 @@ pub fn channel_to_srgb8(linear: f32) -> u8 {
 }
 
 /// Tone-map a frame for display: multiply by `exposure`, apply [`filmic`] per channel, then
-/// [`srgb_encode`](crate::math::color::srgb_encode), rounding to 8 bits. NaN and negative values map to 0, `+inf` to 255.
+/// [`srgb_encode`], rounding to 8 bits. NaN and negative values map to 0, `+inf` to 255.
 pub fn to_srgb8(img: &HdrImage, exposure: f64) -> Vec<[u8; 3]> {
     let exposure = exposure as f32;
     img.data

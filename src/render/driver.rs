@@ -16,6 +16,7 @@ use crate::error::{Error, Result};
 use crate::scene::Scene;
 use glam::DVec4;
 use rayon::prelude::*;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 /// Tile edge in pixels.
@@ -120,12 +121,40 @@ struct Work {
     active: Vec<Vec<bool>>,
 }
 
+/// What a caller watching a render hands in: a callback told how many samples each piece of
+/// work took (from any worker thread), and a flag that stops the render when set.
+#[derive(Clone, Copy)]
+pub struct Monitor<'a> {
+    pub progress: &'a (dyn Fn(u64) + Sync),
+    /// Set it (from any thread) to stop: pieces of work not yet started are skipped and the
+    /// render returns [`Error::Cancelled`].
+    pub cancel: Option<&'a AtomicBool>,
+}
+
+impl Monitor<'_> {
+    fn cancelled(&self) -> bool {
+        self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
+    }
+}
+
 /// Render every frame of `scene`; `progress` is told how many samples each piece of work took.
 pub fn render(
     scene: &Scene,
     options: &Options,
     progress: &(dyn Fn(u64) + Sync),
 ) -> Result<Rendered> {
+    render_monitored(
+        scene,
+        options,
+        Monitor {
+            progress,
+            cancel: None,
+        },
+    )
+}
+
+/// [`render`] that the caller can also stop, through `monitor.cancel`.
+pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> Result<Rendered> {
     let start = Instant::now();
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
@@ -205,6 +234,9 @@ pub fn render(
             if busy == 0 {
                 break;
             }
+            if monitor.cancelled() {
+                return Err(Error::Cancelled);
+            }
             if let (Some(budget), Some(per)) = (options.time_budget, spent_per_sample) {
                 let expected = per * (busy as f64 * pass.len() as f64);
                 if start.elapsed().as_secs_f64() + expected > budget.as_secs_f64() {
@@ -226,7 +258,7 @@ pub fn render(
                         Scratch::default,
                         |scratch, (fs, initial, f, sums, active, tile)| {
                             let mut st = Stats::default();
-                            if active.iter().any(|a| *a) {
+                            if active.iter().any(|a| *a) && !monitor.cancelled() {
                                 integrator::render_tile(
                                     fs,
                                     &settings,
@@ -240,7 +272,7 @@ pub fn render(
                                     sums,
                                 );
                             }
-                            progress(st.samples);
+                            (monitor.progress)(st.samples);
                             st
                         },
                     )
@@ -253,6 +285,9 @@ pub fn render(
                 spent_per_sample = Some(pass_start.elapsed().as_secs_f64() / taken.samples as f64);
             }
             stats += taken;
+            if monitor.cancelled() {
+                return Err(Error::Cancelled);
+            }
             if let Some(threshold) = options.noise_threshold {
                 for w in &mut work {
                     for (sums, active) in w.sums.iter().zip(&mut w.active) {

@@ -1,0 +1,80 @@
+//! The embedding API: a compile failure as an error, a render stopped from its progress
+//! callback, and frames written through the facade.
+
+use hyperslice::{Compilation, Error, Monitor, RenderOptions};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+const SCENE: &str = "render { size = 32 x 24  frames = 4  spp = 8 }
+object ball { shape = hypersphere(1) }
+object lamp { shape = hypersphere(0.5) |> translate([1, 2, -1, 0]) material = light(intensity: 5) }";
+
+#[test]
+fn a_failed_compile_is_an_error_with_its_diagnostics() {
+    let c = Compilation::from_source("bad.4ds", "object o { shape = hypersphre(1) }");
+    match c.into_scene() {
+        Err(Error::Compile { scene, diagnostics }) => {
+            assert_eq!(scene, "bad.4ds");
+            assert!(diagnostics.contains("hypersphere"), "{diagnostics}");
+        }
+        other => panic!("expected a compile error, got {:?}", other.map(|_| ())),
+    }
+    let missing = Compilation::from_path(std::path::Path::new("no/such/scene.4ds"));
+    let err = missing.into_scene().map(|_| ()).unwrap_err().to_string();
+    assert!(err.contains("cannot read"), "{err}");
+}
+
+#[test]
+fn a_render_stops_when_cancelled() {
+    let scene = Compilation::from_source("s.4ds", SCENE)
+        .into_scene()
+        .expect("compiles");
+    let cancel = AtomicBool::new(false);
+    let seen = AtomicU64::new(0);
+    let progress = |n: u64| {
+        // Stop after the first piece of work reports.
+        seen.fetch_add(n, Ordering::Relaxed);
+        cancel.store(true, Ordering::Relaxed);
+    };
+    let monitor = Monitor {
+        progress: &progress,
+        cancel: Some(&cancel),
+    };
+    let options = RenderOptions {
+        threads: Some(1),
+        ..RenderOptions::default()
+    };
+    let result = hyperslice::render(&scene, &options, monitor);
+    assert!(matches!(result, Err(Error::Cancelled)), "not cancelled");
+    let full = 32 * 24 * 4 * 8;
+    let done = seen.load(Ordering::Relaxed);
+    assert!(
+        done > 0 && done < full / 4,
+        "{done} of {full} samples taken"
+    );
+}
+
+#[test]
+fn rendered_frames_are_written_through_the_facade() {
+    let scene = Compilation::from_source("s.4ds", SCENE)
+        .into_scene()
+        .expect("compiles");
+    let progress = |_: u64| {};
+    let monitor = Monitor {
+        progress: &progress,
+        cancel: None,
+    };
+    let rendered = hyperslice::render(&scene, &RenderOptions::default(), monitor).expect("renders");
+    assert_eq!(rendered.frames.len(), 4);
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("out.gif");
+    hyperslice::write(&path, &rendered, &scene).expect("written");
+    let decoder = gif::DecodeOptions::new();
+    let mut d = decoder
+        .read_info(std::fs::File::open(&path).expect("opened"))
+        .expect("a gif");
+    let mut frames = 0;
+    while d.read_next_frame().expect("a frame").is_some() {
+        frames += 1;
+    }
+    assert_eq!(frames, 4);
+}
