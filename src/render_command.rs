@@ -54,7 +54,7 @@ pub struct RenderArgs {
     fps: Option<f64>,
     /// Denoising filter applied to the frames.
     #[arg(long)]
-    denoise: Option<DenoiseArg>,
+    denoise: Option<Denoise>,
     /// Render progressively and stop when this much time is spent (e.g. 30s, 2m, 500ms); `spp`
     /// becomes the most samples a pixel takes (default then 1000000).
     #[arg(long, value_parser = parse_duration)]
@@ -70,13 +70,6 @@ pub struct RenderArgs {
     /// Sobol sequence per pixel.
     #[arg(long, value_enum, default_value_t)]
     sampler: SamplerKind,
-}
-
-#[derive(Clone, Copy, clap::ValueEnum)]
-enum DenoiseArg {
-    None,
-    Median,
-    Atrous,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -166,11 +159,7 @@ impl RenderArgs {
         macro_rules! set { ($($f:ident)*) => { $(if let Some(v) = self.$f { r.$f = v; })* } }
         set!(frames spp bounces epsilon max_steps seed threads exposure fps);
         if let Some(d) = self.denoise {
-            r.denoise = match d {
-                DenoiseArg::None => Denoise::None,
-                DenoiseArg::Median => Denoise::Median,
-                DenoiseArg::Atrous => Denoise::Atrous,
-            };
+            r.denoise = d;
         }
     }
 }

@@ -4,7 +4,6 @@
 use super::{Bench, Family, Metric, Reach, Row, sig};
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
-use crate::scene::Denoise;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -39,14 +38,6 @@ pub fn machine() -> String {
     )
 }
 
-fn denoise_name(d: Denoise) -> &'static str {
-    match d {
-        Denoise::None => "none",
-        Denoise::Median => "median",
-        Denoise::Atrous => "atrous",
-    }
-}
-
 /// A CSV field, quoted when it must be.
 fn field(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -77,7 +68,7 @@ pub fn csv(rows: &[Row]) -> String {
             c.max_steps,
             c.light_sampling,
             c.sampler.name(),
-            denoise_name(c.denoise),
+            c.denoise.name(),
             r.time,
             e.rmse,
             e.psnr,
