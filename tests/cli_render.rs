@@ -180,33 +180,26 @@ fn compile_writes_and_checks_the_pinned_ir() {
     assert_eq!(String::from_utf8_lossy(&printed.stdout), pinned);
     assert!(pinned.contains("light lamp: radius 0.5"), "{pinned}");
 
-    let same = hyperslice(
-        d,
-        &[
-            "compile",
-            "scene.4ds",
-            "--emit",
-            "ir",
-            "--check",
-            "scene.ir",
-        ],
-    );
+    let check = || {
+        hyperslice(
+            d,
+            &[
+                "compile",
+                "scene.4ds",
+                "--emit",
+                "ir",
+                "--check",
+                "scene.ir",
+            ],
+        )
+    };
+    let same = check();
     assert!(same.status.success(), "{}", stderr(&same));
 
     // The lamp moves: the check fails with a diff naming the old and the new offset.
     let moved = LIT_BALL.replace("[1, 2, 0, 0]", "[1, 3, 0, 0]");
     std::fs::write(d.join("scene.4ds"), moved).expect("scene written");
-    let changed = hyperslice(
-        d,
-        &[
-            "compile",
-            "scene.4ds",
-            "--emit",
-            "ir",
-            "--check",
-            "scene.ir",
-        ],
-    );
+    let changed = check();
     assert_eq!(changed.status.code(), Some(1));
     let err = stderr(&changed);
     assert!(err.contains("differs from `scene.ir`"), "{err}");

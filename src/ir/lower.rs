@@ -368,23 +368,23 @@ impl Lower<'_> {
     }
 
     fn vector(&mut self, v: &Vector, env: Env) -> [Id; 4] {
-        match v {
-            Param::Const(v) => v.map(|x| self.k(x)),
-            Param::Field(id) => match self.field(*id, env) {
-                Lv::V(v) => v,
-                Lv::S(a) => [a; 4],
-                other => unreachable!("checked as a vector: {other:?}"),
-            },
-        }
+        self.lanes(v, env)
     }
 
     fn color(&mut self, c: &Param<[f64; 3]>, env: Env) -> [Id; 3] {
-        match c {
-            Param::Const(c) => c.map(|x| self.k(x)),
+        self.lanes(c, env)
+    }
+
+    /// A vector or colour parameter as its `N` lanes; a scalar field is broadcast.
+    fn lanes<const N: usize>(&mut self, v: &Param<[f64; N]>, env: Env) -> [Id; N] {
+        match v {
+            Param::Const(v) => v.map(|x| self.k(x)),
             Param::Field(id) => match self.field(*id, env) {
-                Lv::C(c) => c,
-                Lv::S(a) => [a; 3],
-                other => unreachable!("checked as a colour: {other:?}"),
+                Lv::S(a) => [a; N],
+                other => {
+                    let l = other.lanes();
+                    std::array::from_fn(|i| l[i.min(l.len() - 1)])
+                }
             },
         }
     }
