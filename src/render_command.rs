@@ -242,8 +242,8 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     );
     if r.denoise != Denoise::None {
         eprintln!(
-            "denoised ({:?}) in {:.2} s",
-            r.denoise,
+            "denoised ({}) in {:.2} s",
+            r.denoise.name(),
             rendered.denoise_time.as_secs_f64()
         );
     }
