@@ -459,9 +459,7 @@ pub fn select(
 
 /// Evaluate a maths builtin on constants of the right types, with the kernels the renderer uses.
 fn apply(f: MathFn, args: &[Value], ty: &Type) -> Value {
-    use MathFn::*;
     let l: Vec<Vec<f64>> = args.iter().map(|a| lanes(a).unwrap_or_default()).collect();
-    let x = l[0][0];
     let map1 = |op: Un| from_lanes(ty, &l[0].iter().map(|x| un(op, *x)).collect::<Vec<_>>());
     let zip = |f: &dyn Fn(f64, f64) -> f64| {
         let out: Vec<f64> = l[0].iter().zip(&l[1]).map(|(a, b)| f(*a, *b)).collect();
@@ -469,38 +467,21 @@ fn apply(f: MathFn, args: &[Value], ty: &Type) -> Value {
     };
     let length = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
     match f {
-        Sin => Value::Num(un(Un::Sin, x)),
-        Cos => Value::Num(un(Un::Cos, x)),
-        Tan => Value::Num(un(Un::Tan, x)),
-        Asin => Value::Angle(un(Un::Asin, x)),
-        Acos => Value::Angle(un(Un::Acos, x)),
-        Atan => Value::Angle(un(Un::Atan, x)),
-        Atan2 => Value::Angle(bin(Bin::Atan2, x, l[1][0])),
-        Sqrt => map1(Un::Sqrt),
-        Exp => map1(Un::Exp),
-        Log => map1(Un::Ln),
-        Abs => map1(Un::Abs),
-        Floor => map1(Un::Floor),
-        Ceil => map1(Un::Ceil),
-        Round => map1(Un::Round),
-        Fract => map1(Un::Fract),
-        Sign => map1(Un::Sign),
-        Pow => Value::Num(bin(Bin::Pow, x, l[1][0])),
-        Min => zip(&|a, b| bin(Bin::Min, a, b)),
-        Max => zip(&|a, b| bin(Bin::Max, a, b)),
-        Clamp => {
+        MathFn::Un(op) => map1(op),
+        MathFn::Bin(op) => zip(&|a, b| bin(op, a, b)),
+        MathFn::Clamp => {
             let out: Vec<f64> = (0..l[0].len())
                 .map(|i| bin(Bin::Min, bin(Bin::Max, l[0][i], l[1][i]), l[2][i]))
                 .collect();
             from_lanes(ty, &out)
         }
-        Mix => {
+        MathFn::Mix => {
             let k = l[2][0];
             zip(&|a, b| a + (b - a) * k)
         }
-        Length => Value::Num(length(&l[0])),
-        Dot => Value::Num(l[0].iter().zip(&l[1]).map(|(a, b)| a * b).sum()),
-        Normalize => {
+        MathFn::Length => Value::Num(length(&l[0])),
+        MathFn::Dot => Value::Num(l[0].iter().zip(&l[1]).map(|(a, b)| a * b).sum()),
+        MathFn::Normalize => {
             let n = length(&l[0]);
             from_lanes(ty, &l[0].iter().map(|x| x / n).collect::<Vec<_>>())
         }
@@ -543,8 +524,8 @@ pub fn math(ck: &mut Checker, f: MathFn, name: &str, args: Vec<ArgVal>, span: Sp
             Diagnostic::error("E0301", format!("`{name}` is undefined here"))
                 .label(span, "this gives no number (NaN)")
                 .help(match f {
-                    MathFn::Sqrt | MathFn::Log => "the argument must not be negative",
-                    MathFn::Asin | MathFn::Acos => "the argument must lie in [-1, 1]",
+                    MathFn::Un(Un::Sqrt | Un::Ln) => "the argument must not be negative",
+                    MathFn::Un(Un::Asin | Un::Acos) => "the argument must lie in [-1, 1]",
                     _ => "check the arguments",
                 }),
         );

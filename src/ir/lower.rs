@@ -539,25 +539,8 @@ impl Lower<'_> {
         };
         let a = &args[0];
         match f {
-            MathFn::Sin => map(self, Un::Sin, a),
-            MathFn::Cos => map(self, Un::Cos, a),
-            MathFn::Tan => map(self, Un::Tan, a),
-            MathFn::Asin => map(self, Un::Asin, a),
-            MathFn::Acos => map(self, Un::Acos, a),
-            MathFn::Atan => map(self, Un::Atan, a),
-            MathFn::Sqrt => map(self, Un::Sqrt, a),
-            MathFn::Exp => map(self, Un::Exp, a),
-            MathFn::Log => map(self, Un::Ln, a),
-            MathFn::Abs => map(self, Un::Abs, a),
-            MathFn::Floor => map(self, Un::Floor, a),
-            MathFn::Ceil => map(self, Un::Ceil, a),
-            MathFn::Round => map(self, Un::Round, a),
-            MathFn::Fract => map(self, Un::Fract, a),
-            MathFn::Sign => map(self, Un::Sign, a),
-            MathFn::Atan2 => self.zip(Bin::Atan2, a, &args[1]),
-            MathFn::Pow => self.zip(Bin::Pow, a, &args[1]),
-            MathFn::Min => self.zip(Bin::Min, a, &args[1]),
-            MathFn::Max => self.zip(Bin::Max, a, &args[1]),
+            MathFn::Un(op) => map(self, op, a),
+            MathFn::Bin(op) => self.zip(op, a, &args[1]),
             MathFn::Clamp => {
                 let lo = self.zip(Bin::Max, a, &args[1]);
                 self.zip(Bin::Min, &lo, &args[2])

@@ -4,6 +4,7 @@
 use super::lattice::Lattice;
 use super::material::Material;
 use super::types::Type;
+use crate::math::{Bin, Un};
 use crate::syntax::ast::{BinOp, UnOp};
 use std::rc::Rc;
 
@@ -63,28 +64,12 @@ impl<T> Param<T> {
     }
 }
 
-/// Maths builtins shared by constant evaluation and field expressions.
+/// Maths builtins shared by constant evaluation and field expressions: most are one scalar
+/// operation of `math` applied per component; the rest combine several.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MathFn {
-    Sin,
-    Cos,
-    Tan,
-    Asin,
-    Acos,
-    Atan,
-    Atan2,
-    Sqrt,
-    Abs,
-    Floor,
-    Ceil,
-    Round,
-    Fract,
-    Sign,
-    Exp,
-    Log,
-    Pow,
-    Min,
-    Max,
+    Un(Un),
+    Bin(Bin),
     Clamp,
     Mix,
     Length,
@@ -95,32 +80,32 @@ pub enum MathFn {
 impl MathFn {
     /// Every maths builtin with its name in the language.
     pub const ALL: [(&'static str, MathFn); 24] = {
-        use MathFn::*;
+        use MathFn::{Bin as B, Un as U};
         [
-            ("sin", Sin),
-            ("cos", Cos),
-            ("tan", Tan),
-            ("asin", Asin),
-            ("acos", Acos),
-            ("atan", Atan),
-            ("atan2", Atan2),
-            ("sqrt", Sqrt),
-            ("abs", Abs),
-            ("floor", Floor),
-            ("ceil", Ceil),
-            ("round", Round),
-            ("fract", Fract),
-            ("sign", Sign),
-            ("exp", Exp),
-            ("log", Log),
-            ("pow", Pow),
-            ("min", Min),
-            ("max", Max),
-            ("clamp", Clamp),
-            ("mix", Mix),
-            ("length", Length),
-            ("dot", Dot),
-            ("normalize", Normalize),
+            ("sin", U(Un::Sin)),
+            ("cos", U(Un::Cos)),
+            ("tan", U(Un::Tan)),
+            ("asin", U(Un::Asin)),
+            ("acos", U(Un::Acos)),
+            ("atan", U(Un::Atan)),
+            ("atan2", B(Bin::Atan2)),
+            ("sqrt", U(Un::Sqrt)),
+            ("abs", U(Un::Abs)),
+            ("floor", U(Un::Floor)),
+            ("ceil", U(Un::Ceil)),
+            ("round", U(Un::Round)),
+            ("fract", U(Un::Fract)),
+            ("sign", U(Un::Sign)),
+            ("exp", U(Un::Exp)),
+            ("log", U(Un::Ln)),
+            ("pow", B(Bin::Pow)),
+            ("min", B(Bin::Min)),
+            ("max", B(Bin::Max)),
+            ("clamp", MathFn::Clamp),
+            ("mix", MathFn::Mix),
+            ("length", MathFn::Length),
+            ("dot", MathFn::Dot),
+            ("normalize", MathFn::Normalize),
         ]
     };
 
@@ -139,22 +124,22 @@ impl MathFn {
     }
 
     pub fn params(self) -> &'static [&'static str] {
-        use MathFn::*;
+        use MathFn as M;
         match self {
-            Sin | Cos | Tan => &["angle"],
-            Atan2 => &["y", "x"],
-            Pow => &["x", "y"],
-            Min | Max | Dot => &["a", "b"],
-            Clamp => &["x", "lo", "hi"],
-            Mix => &["a", "b", "k"],
-            Length | Normalize => &["v"],
-            _ => &["x"],
+            M::Un(Un::Sin | Un::Cos | Un::Tan) => &["angle"],
+            M::Bin(Bin::Atan2) => &["y", "x"],
+            M::Bin(Bin::Pow) => &["x", "y"],
+            M::Bin(_) | M::Dot => &["a", "b"],
+            M::Clamp => &["x", "lo", "hi"],
+            M::Mix => &["a", "b", "k"],
+            M::Length | M::Normalize => &["v"],
+            M::Un(_) => &["x"],
         }
     }
 
     /// Expected types of the arguments given the first one's type, and the result type.
     pub fn signature(self, first: &Type) -> (Vec<Type>, Type) {
-        use MathFn::*;
+        use MathFn as M;
         use Type as T;
         let x = if first.is_numeric() {
             first.clone()
@@ -162,21 +147,21 @@ impl MathFn {
             T::Num
         };
         match self {
-            Sin | Cos | Tan => (vec![T::Angle], T::Num),
-            Asin | Acos | Atan => (vec![T::Num], T::Angle),
-            Atan2 => (vec![T::Num, T::Num], T::Angle),
-            Sqrt | Exp | Log => {
+            M::Un(Un::Sin | Un::Cos | Un::Tan) => (vec![T::Angle], T::Num),
+            M::Un(Un::Asin | Un::Acos | Un::Atan) => (vec![T::Num], T::Angle),
+            M::Bin(Bin::Atan2) => (vec![T::Num, T::Num], T::Angle),
+            M::Un(Un::Sqrt | Un::Exp | Un::Ln) => {
                 let x = if *first == T::Vec4 { T::Vec4 } else { T::Num };
                 (vec![x.clone()], x)
             }
-            Pow => (vec![T::Num, T::Num], T::Num),
-            Abs | Floor | Ceil | Round | Fract | Sign => (vec![x.clone()], x),
-            Min | Max => (vec![x.clone(), x.clone()], x),
-            Clamp => (vec![x.clone(), x.clone(), x.clone()], x),
-            Mix => (vec![x.clone(), x.clone(), T::Num], x),
-            Length => (vec![T::Vec4], T::Num),
-            Dot => (vec![T::Vec4, T::Vec4], T::Num),
-            Normalize => (vec![T::Vec4], T::Vec4),
+            M::Bin(Bin::Pow) => (vec![T::Num, T::Num], T::Num),
+            M::Un(_) => (vec![x.clone()], x),
+            M::Bin(_) => (vec![x.clone(), x.clone()], x),
+            M::Clamp => (vec![x.clone(), x.clone(), x.clone()], x),
+            M::Mix => (vec![x.clone(), x.clone(), T::Num], x),
+            M::Length => (vec![T::Vec4], T::Num),
+            M::Dot => (vec![T::Vec4, T::Vec4], T::Num),
+            M::Normalize => (vec![T::Vec4], T::Vec4),
         }
     }
 }
