@@ -5,6 +5,7 @@
 pub mod check;
 pub mod denoise;
 pub mod diagnostic;
+pub mod film;
 pub mod ir;
 pub mod metrics;
 pub mod output;

@@ -16,7 +16,7 @@ pub mod atrous;
 pub mod median;
 
 use crate::check::Denoise;
-use crate::render::film::Film;
+use crate::film::Film;
 
 pub use atrous::{AtrousOptions, Temporal};
 

@@ -6,12 +6,12 @@
 //! with a time budget, a pass starts only if it is expected to end within the budget; with a
 //! noise threshold, a pixel stops taking samples once its relative standard error is below it.
 
-use super::film::{Film, PixelSums};
 use super::frame::{FrameScene, Prepared};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
 use super::sampler::SamplerKind;
 use crate::check::Scene;
+use crate::film::{Film, PixelSums};
 use glam::DVec4;
 use rayon::prelude::*;
 use std::time::{Duration, Instant};
