@@ -10,6 +10,7 @@ pub mod ir;
 pub mod metrics;
 pub mod output;
 pub mod render;
+pub mod simd;
 pub mod source;
 pub mod sweep;
 pub mod syntax;
