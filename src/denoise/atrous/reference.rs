@@ -14,7 +14,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
 /// The exponent beyond which a tap is dropped (the optimised filter's `CUTOFF`).
-const CUTOFF: f64 = super::CUTOFF as f64;
+const CUTOFF: f64 = super::kernel::CUTOFF as f64;
 
 /// A frame's prepared guides and its film.
 struct Guides<'f> {
