@@ -4,6 +4,7 @@
 use super::guides::{ALBEDO, FOOT_X, FOOT_Y, MISSED, NORMAL, POSITION, POSITION_LO, VAR};
 use super::guides::{CHANNELS, COLOR_PLANES, Guides, PLANES, plane};
 use super::{B3, offset};
+use crate::simd;
 
 /// A tap whose exponent exceeds this is dropped (weight below 1e-17 of its kernel weight).
 pub(super) const CUTOFF: f32 = 40.0;
@@ -402,116 +403,86 @@ impl Pass<'_> {
     /// Row `y` of the weight sums of frame `k`'s pixels, and the row's weights (see
     /// `block_taps`).
     pub(super) fn sums_row(&self, (k, y): (usize, usize), out: &mut [f64], stored: &mut [f32]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, just detected.
-            unsafe { self.sums_row_avx2((k, y), out, stored) };
-            return;
-        }
-        self.sums_row_any((k, y), out, stored);
-    }
-
-    /// The same compiled with AVX2 (8 lanes instead of SSE2's 4; no fused multiply-adds, so
-    /// the results are the same bits).
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn sums_row_avx2(&self, (k, y): (usize, usize), out: &mut [f64], stored: &mut [f32]) {
-        self.sums_row_any((k, y), out, stored);
-    }
-
-    #[inline(always)]
-    fn sums_row_any(&self, (k, y): (usize, usize), out: &mut [f64], stored: &mut [f32]) {
         let Some(g) = &self.guides[k] else {
             return;
         };
-        let mut weights = Weights::Store(stored);
-        for (b, out) in out[..g.w].chunks_mut(BLOCK).enumerate() {
-            let mut sums = Sums([0.0; BLOCK]);
-            self.block_taps((k, y), (b * BLOCK, out.len()), &mut weights, &mut sums);
-            out.copy_from_slice(&sums.0[..out.len()]);
-        }
+        // The tap loops at `LANES` wide.
+        simd::wide!({
+            let mut weights = Weights::Store(stored);
+            for (b, out) in out[..g.w].chunks_mut(BLOCK).enumerate() {
+                let mut sums = Sums([0.0; BLOCK]);
+                self.block_taps((k, y), (b * BLOCK, out.len()), &mut weights, &mut sums);
+                out.copy_from_slice(&sums.0[..out.len()]);
+            }
+        })
     }
 
-    /// Row `y` of the demodulated colours of frame `k` after this pass (as planes). With `sums`
+    /// Row `y` of the demodulated colours of frame `k` after this pass (as planes). With `flux`
     /// (the weight sums of every pixel) the update is in flux form,
     /// `c_p + sum_q w_pq (c_q - c_p) / max(W_p, W_q)`, which moves as much colour from `p` to
     /// `q` as from `q` to `p` and so keeps the sum of the image; without, the usual normalised
     /// average `sum_q w_pq c_q / W_p`. A pixel whose colour is not valid takes the normalised
     /// average in either case.
     ///
-    /// The weights are computed, or with `sums` taken from `stored`, where `sums_row` left them.
-    pub(super) fn update_row(&self, (k, y): (usize, usize), sums: Option<Flux>, out: &mut [f64]) {
-        #[cfg(target_arch = "x86_64")]
-        if std::is_x86_feature_detected!("avx2") {
-            // SAFETY: the CPU supports AVX2, just detected.
-            unsafe { self.update_row_avx2((k, y), sums, out) };
-            return;
-        }
-        self.update_row_any((k, y), sums, out);
-    }
-
-    /// The same compiled with AVX2.
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2")]
-    fn update_row_avx2(&self, (k, y): (usize, usize), sums: Option<Flux>, out: &mut [f64]) {
-        self.update_row_any((k, y), sums, out);
-    }
-
-    #[inline(always)]
-    fn update_row_any(&self, (k, y): (usize, usize), flux: Option<Flux>, out: &mut [f64]) {
-        let sums = flux.map(|f| f.0);
-        let mut weights = match flux {
-            Some((_, stored)) => Weights::Load(stored),
-            None => Weights::Compute,
-        };
+    /// The weights are computed, or with `flux` taken from its row of weights, where `sums_row`
+    /// left them.
+    pub(super) fn update_row(&self, (k, y): (usize, usize), flux: Option<Flux>, out: &mut [f64]) {
         let Some(g) = &self.guides[k] else {
             return;
         };
-        let (w, s) = (g.w, g.s);
-        let cur = &self.cur[k][y * CHANNELS * s..(y + 1) * CHANNELS * s];
-        for x0 in (0..w).step_by(BLOCK) {
-            let len = BLOCK.min(w - x0);
-            let cp = [0, 1, 2].map(|c| &cur[c * s + x0..c * s + x0 + len]);
-            let mut valid = [false; BLOCK];
-            for (i, v) in valid[..len].iter_mut().enumerate() {
-                *v = finite3(cp[0][i], cp[1][i], cp[2][i]);
-            }
-            let mut acc = Update {
-                cur: self.cur,
-                s,
-                cp,
-                flux: sums.map(|sums| (sums, &sums[k][y * s + x0..y * s + x0 + len])),
-                // The normalised average is needed for every pixel without `sums`, else only
-                // for those without a valid colour.
-                average: sums.is_none() || valid[..len].contains(&false),
-                delta: [[0.0; BLOCK]; CHANNELS],
-                sum: [[0.0; BLOCK]; CHANNELS],
-                wsum: [0.0; BLOCK],
+        // The tap loops at `LANES` wide.
+        simd::wide!({
+            let sums = flux.map(|f| f.0);
+            let mut weights = match flux {
+                Some((_, stored)) => Weights::Load(stored),
+                None => Weights::Compute,
             };
-            self.block_taps((k, y), (x0, len), &mut weights, &mut acc);
-            for (i, valid) in valid[..len].iter().enumerate() {
-                let c = [cp[0][i], cp[1][i], cp[2][i]];
-                let v = if sums.is_some() && *valid {
-                    [
-                        c[0] + acc.delta[0][i],
-                        c[1] + acc.delta[1][i],
-                        c[2] + acc.delta[2][i],
-                    ]
-                } else if acc.wsum[i] > 0.0 {
-                    [
-                        acc.sum[0][i] / acc.wsum[i],
-                        acc.sum[1][i] / acc.wsum[i],
-                        acc.sum[2][i] / acc.wsum[i],
-                    ]
-                } else {
-                    c
+            let (w, s) = (g.w, g.s);
+            let cur = &self.cur[k][y * CHANNELS * s..(y + 1) * CHANNELS * s];
+            for x0 in (0..w).step_by(BLOCK) {
+                let len = BLOCK.min(w - x0);
+                let cp = [0, 1, 2].map(|c| &cur[c * s + x0..c * s + x0 + len]);
+                let mut valid = [false; BLOCK];
+                for (i, v) in valid[..len].iter_mut().enumerate() {
+                    *v = finite3(cp[0][i], cp[1][i], cp[2][i]);
+                }
+                let mut acc = Update {
+                    cur: self.cur,
+                    s,
+                    cp,
+                    flux: sums.map(|sums| (sums, &sums[k][y * s + x0..y * s + x0 + len])),
+                    // The normalised average is needed for every pixel without `sums`, else only
+                    // for those without a valid colour.
+                    average: sums.is_none() || valid[..len].contains(&false),
+                    delta: [[0.0; BLOCK]; CHANNELS],
+                    sum: [[0.0; BLOCK]; CHANNELS],
+                    wsum: [0.0; BLOCK],
                 };
-                let v = if finite3(v[0], v[1], v[2]) { v } else { c };
-                for (ch, v) in v.iter().enumerate() {
-                    out[ch * s + x0 + i] = *v;
+                self.block_taps((k, y), (x0, len), &mut weights, &mut acc);
+                for (i, valid) in valid[..len].iter().enumerate() {
+                    let c = [cp[0][i], cp[1][i], cp[2][i]];
+                    let v = if sums.is_some() && *valid {
+                        [
+                            c[0] + acc.delta[0][i],
+                            c[1] + acc.delta[1][i],
+                            c[2] + acc.delta[2][i],
+                        ]
+                    } else if acc.wsum[i] > 0.0 {
+                        [
+                            acc.sum[0][i] / acc.wsum[i],
+                            acc.sum[1][i] / acc.wsum[i],
+                            acc.sum[2][i] / acc.wsum[i],
+                        ]
+                    } else {
+                        c
+                    };
+                    let v = if finite3(v[0], v[1], v[2]) { v } else { c };
+                    for (ch, v) in v.iter().enumerate() {
+                        out[ch * s + x0 + i] = *v;
+                    }
                 }
             }
-        }
+        })
     }
 }
 
