@@ -2,7 +2,9 @@
 //! factor, normal, position, footprints, noise variance), computed once in `f64`
 //! (`prepare`) and stored as `f32` planes (`pack`) for the vectorised taps.
 
-use super::{AtrousOptions, B3, Film, offset, term};
+use super::{AtrousOptions, B3, offset, term};
+use crate::denoise::consistent;
+use crate::film::Film;
 use glam::{DVec3, DVec4};
 use rayon::prelude::*;
 
@@ -92,7 +94,7 @@ pub(super) fn split(v: f64) -> (f32, f32) {
 
 /// A power of two near `1 / m` (one if `m` is not positive and finite): the guides are scaled
 /// by it exactly, so that their `f32` squares neither overflow nor underflow.
-pub(super) fn scale_for(m: f64) -> f64 {
+fn scale_for(m: f64) -> f64 {
     if m > 0.0 && m.is_finite() {
         (-m.log2().round()).clamp(-1000.0, 1000.0).exp2()
     } else {
@@ -102,6 +104,29 @@ pub(super) fn scale_for(m: f64) -> f64 {
 
 fn is_missed(n: DVec4) -> bool {
     n.length_squared() == 0.0
+}
+
+/// Every frame's guides (`None` for a film whose buffers disagree with its size), and the
+/// scale `scale_c` of the colours: their variances are stored times `scale_c^2`, so the
+/// colours the taps compare must be scaled alike.
+pub(super) fn of_frames(frames: &[Film], opts: &AtrousOptions) -> (Vec<Option<Guides>>, f64) {
+    let prepared: Vec<Option<Prepared>> = frames
+        .par_iter()
+        .map(|f| consistent(f).then(|| prepare(f, opts)))
+        .collect();
+    // Scales of the positions (and footprints) and of the colours (and standard errors).
+    let largest =
+        |f: &dyn Fn(&Prepared) -> f64| prepared.iter().flatten().map(f).fold(0.0, f64::max);
+    let scale_x = scale_for(largest(&|p| {
+        p.fx.iter().chain(&p.fy).copied().fold(0.0, f64::max)
+    }));
+    let scale_c = scale_for(largest(&|p| p.var.iter().copied().fold(0.0, f64::max)).sqrt());
+    let guides = frames
+        .par_iter()
+        .zip(prepared)
+        .map(|(f, p)| p.map(|p| pack(f, p, scale_x, scale_c)))
+        .collect();
+    (guides, scale_c)
 }
 
 /// A frame's guides in `f64`, before they are scaled and stored as planes.
@@ -120,7 +145,7 @@ pub(super) struct Prepared {
 /// variances by `scale_c^2` (powers of two: exact). A missed pixel's position and footprints
 /// are stored as zero, so that two missed pixels (whose normals are zero too) have neither a
 /// normal nor a position term.
-pub(super) fn pack(film: &Film, p: Prepared, scale_x: f64, scale_c: f64) -> Guides {
+fn pack(film: &Film, p: Prepared, scale_x: f64, scale_c: f64) -> Guides {
     let (w, h) = (film.width, film.height);
     let s = stride(w);
     let data = to_planes((w, h, s), |i| {

@@ -75,13 +75,10 @@ mod reference;
 pub use guides::ALBEDO_EPSILON;
 pub use options::{AtrousOptions, Temporal};
 
-use super::{Film, compatible, consistent};
+use super::{Film, compatible};
 use glam::DVec3;
-use guides::{
-    CHANNELS, COLOR_PLANES, Guides, Prepared, pack, prepare, scale_for, split, to_planes,
-};
+use guides::{CHANNELS, COLOR_PLANES, Guides, split, to_planes};
 use kernel::{Pass, TAPS, Term};
-use options::MAX_PASSES;
 use rayon::prelude::*;
 
 /// The B3-spline kernel, 1D.
@@ -123,22 +120,7 @@ pub fn atrous(frames: &mut [Film], opts: &AtrousOptions) {
 /// The filtered colour of every frame, without changing the films (`None` for a film whose
 /// buffers disagree with its size).
 pub fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>> {
-    let prepared: Vec<Option<Prepared>> = frames
-        .par_iter()
-        .map(|f| consistent(f).then(|| prepare(f, opts)))
-        .collect();
-    // Scales of the positions (and footprints) and of the colours (and standard errors).
-    let largest =
-        |f: &dyn Fn(&Prepared) -> f64| prepared.iter().flatten().map(f).fold(0.0, f64::max);
-    let scale_x = scale_for(largest(&|p| {
-        p.fx.iter().chain(&p.fy).copied().fold(0.0, f64::max)
-    }));
-    let scale_c = scale_for(largest(&|p| p.var.iter().copied().fold(0.0, f64::max)).sqrt());
-    let guides: Vec<Option<Guides>> = frames
-        .par_iter()
-        .zip(prepared)
-        .map(|(f, p)| p.map(|p| pack(f, p, scale_x, scale_c)))
-        .collect();
+    let (guides, scale_c) = guides::of_frames(frames, opts);
     // Demodulated colours, as planes.
     let mut cur: Vec<Vec<f64>> = frames
         .par_iter()
@@ -175,12 +157,8 @@ pub fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>
         .iter()
         .map(|g| g.as_ref().map_or(Vec::new(), |g| vec![0.0; g.s * g.h]))
         .collect();
-    for pass in 0..opts.passes.min(MAX_PASSES) {
-        let temporal = match opts.temporal {
-            Temporal::Off => false,
-            Temporal::FirstPass => pass == 0,
-            Temporal::AllPasses => true,
-        };
+    for pass in opts.pass_range() {
+        let temporal = opts.temporal.reaches(pass);
         let sources = neighbours
             .iter()
             .enumerate()
@@ -206,7 +184,7 @@ pub fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>
                 }
             }
         });
-        let sc = opts.sigma_color * opts.sigma_color_decay.powi(pass as i32);
+        let sc = opts.sigma_color_at(pass);
         let step = Pass {
             guides: &guides,
             cur: &cur,
@@ -263,19 +241,26 @@ pub fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>
         .zip(&cur)
         .map(|((f, g), c)| {
             let g = g.as_ref()?;
-            Some(
-                f.color
-                    .iter()
-                    .enumerate()
-                    .map(|(p, orig)| {
-                        let (x, y) = (p % g.w, p / g.w);
-                        let row = &c[y * CHANNELS * g.s..];
-                        let c = DVec3::new(row[x], row[g.s + x], row[2 * g.s + x]);
-                        let v = c * g.albedo[p];
-                        if v.is_finite() { v } else { *orig }
-                    })
-                    .collect(),
-            )
+            Some(remodulated(f, &g.albedo, |p| {
+                let (x, y) = (p % g.w, p / g.w);
+                let row = &c[y * CHANNELS * g.s..];
+                DVec3::new(row[x], row[g.s + x], row[2 * g.s + x])
+            }))
+        })
+        .collect()
+}
+
+/// A film's colours from its filtered demodulated ones (`demodulated(p)` of pixel `p`): times
+/// the demodulation factor, or the film's own colour where that is not finite. The reference
+/// filter ends the same way.
+fn remodulated(film: &Film, albedo: &[DVec3], demodulated: impl Fn(usize) -> DVec3) -> Vec<DVec3> {
+    film.color
+        .iter()
+        .zip(albedo)
+        .enumerate()
+        .map(|(p, (orig, a))| {
+            let v = demodulated(p) * *a;
+            if v.is_finite() { v } else { *orig }
         })
         .collect()
 }

@@ -1,7 +1,10 @@
-//! The a-trous filter's settings.
+//! The a-trous filter's settings, and what they mean for each pass (read alike by the filter
+//! and by its reference).
+
+use std::ops::Range;
 
 /// Passes beyond this are ignored (their hole spacing would exceed any image).
-pub(super) const MAX_PASSES: u32 = 24;
+const MAX_PASSES: u32 = 24;
 
 /// Which passes also take taps from the neighbouring frames.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -49,5 +52,28 @@ impl Default for AtrousOptions {
             temporal: Temporal::AllPasses,
             conserve: true,
         }
+    }
+}
+
+impl Temporal {
+    /// Whether pass `pass` takes taps from the neighbouring frames.
+    pub(super) fn reaches(self, pass: u32) -> bool {
+        match self {
+            Temporal::Off => false,
+            Temporal::FirstPass => pass == 0,
+            Temporal::AllPasses => true,
+        }
+    }
+}
+
+impl AtrousOptions {
+    /// The passes that run.
+    pub(super) fn pass_range(&self) -> Range<u32> {
+        0..self.passes.min(MAX_PASSES)
+    }
+
+    /// The colour sigma of pass `pass`.
+    pub(super) fn sigma_color_at(&self, pass: u32) -> f64 {
+        self.sigma_color * self.sigma_color_decay.powi(pass as i32)
     }
 }
