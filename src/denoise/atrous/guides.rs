@@ -242,8 +242,16 @@ pub(super) fn prepare(film: &Film, opts: &AtrousOptions) -> Prepared {
         .std_error
         .iter()
         .all(|s| sanitize(s.x) + sanitize(s.y) + sanitize(s.z) == 0.0);
+    let surface = Surface {
+        film,
+        missed: &missed,
+        fx: &fx,
+        fy: &fy,
+        sn2: opts.sigma_normal * opts.sigma_normal,
+        sx2: opts.sigma_position * opts.sigma_position,
+    };
     let var: Vec<f64> = if no_noise_info {
-        spatial_variance(film, &albedo, &missed, &fx, &fy, opts)
+        spatial_variance(&surface, &albedo)
     } else {
         film.std_error
             .iter()
@@ -255,7 +263,7 @@ pub(super) fn prepare(film: &Film, opts: &AtrousOptions) -> Prepared {
             })
             .collect()
     };
-    let var = smooth_variance(film, &var, &missed, &fx, &fy, opts);
+    let var = smooth_variance(&surface, &var);
     Prepared {
         albedo,
         missed,
@@ -265,22 +273,44 @@ pub(super) fn prepare(film: &Film, opts: &AtrousOptions) -> Prepared {
     }
 }
 
+/// What tells whether two pixels of a frame lie on the same surface, for the variance
+/// estimates: their normals and positions, as the filter's guides weigh them.
+struct Surface<'a> {
+    film: &'a Film,
+    missed: &'a [bool],
+    fx: &'a [f64],
+    fy: &'a [f64],
+    /// The squared sigmas of the normal and of the position.
+    sn2: f64,
+    sx2: f64,
+}
+
+impl Surface<'_> {
+    /// The normal and position terms of the weight of pixel `q`, `(dx, dy)` pixels from `p`:
+    /// zero where both rays missed, `None` where only one did.
+    fn exponent(&self, p: usize, q: usize, (dx, dy): (f64, f64)) -> Option<f64> {
+        if self.missed[p] != self.missed[q] {
+            return None;
+        }
+        if self.missed[p] {
+            return Some(0.0);
+        }
+        let (n, x) = (&self.film.normal, &self.film.position);
+        let f2 = (dx * self.fx[p]).powi(2) + (dy * self.fy[p]).powi(2);
+        Some(
+            term(n[p].distance_squared(n[q]), self.sn2)
+                + term(x[p].distance_squared(x[q]), self.sx2 * f2),
+        )
+    }
+}
+
 /// The variance averaged over the pixel's 5x5 neighbourhood on the same surface (B3 weights
 /// times the normal and position guides). A pixel's own standard error, estimated from its few
 /// samples, is itself very noisy and correlated with its value (a 16-sample pixel that caught
 /// no light reports zero variance); weights built from it would treat dark and bright pixels
 /// differently and shift the mean.
-fn smooth_variance(
-    film: &Film,
-    var: &[f64],
-    missed: &[bool],
-    fx: &[f64],
-    fy: &[f64],
-    opts: &AtrousOptions,
-) -> Vec<f64> {
-    let (w, h) = (film.width, film.height);
-    let sn2 = opts.sigma_normal * opts.sigma_normal;
-    let sx2 = opts.sigma_position * opts.sigma_position;
+fn smooth_variance(surface: &Surface, var: &[f64]) -> Vec<f64> {
+    let (w, h) = (surface.film.width, surface.film.height);
     let mut out = var.to_vec();
     if w == 0 {
         return out;
@@ -300,18 +330,9 @@ fn smooth_variance(
                         continue;
                     };
                     let q = qy * w + qx;
-                    if missed[q] != missed[p] {
+                    let Some(t) = surface.exponent(p, q, (dx as f64, dy as f64)) else {
                         continue;
-                    }
-                    let mut t = 0.0;
-                    if !missed[p] {
-                        let f2 = (dx as f64 * fx[p]).powi(2) + (dy as f64 * fy[p]).powi(2);
-                        t = term(film.normal[p].distance_squared(film.normal[q]), sn2)
-                            + term(
-                                film.position[p].distance_squared(film.position[q]),
-                                sx2 * f2,
-                            );
-                    }
+                    };
                     let wq = kx * ky * (-t).exp();
                     if wq > 0.0 {
                         sum += wq * var[q];
@@ -329,17 +350,9 @@ fn smooth_variance(
 
 /// A pixel's noise variance from its 3x3 neighbourhood on the same surface (pixels that pass the
 /// normal and position tests with weight >= 1/2), for films without a standard error.
-fn spatial_variance(
-    film: &Film,
-    albedo: &[DVec3],
-    missed: &[bool],
-    fx: &[f64],
-    fy: &[f64],
-    opts: &AtrousOptions,
-) -> Vec<f64> {
+fn spatial_variance(surface: &Surface, albedo: &[DVec3]) -> Vec<f64> {
+    let film = surface.film;
     let (w, h) = (film.width, film.height);
-    let sn2 = opts.sigma_normal * opts.sigma_normal;
-    let sx2 = opts.sigma_position * opts.sigma_position;
     let mut var = vec![0.0; w * h];
     if w == 0 {
         return var;
@@ -353,20 +366,15 @@ fn spatial_variance(
                 for qx in x.saturating_sub(1)..=(x + 1).min(w - 1) {
                     let q = qy * w + qx;
                     let c = film.color[q] / albedo[q];
-                    if !c.is_finite() || missed[p] != missed[q] {
+                    if !c.is_finite() {
                         continue;
                     }
-                    if !missed[p] {
-                        let (dx, dy) = (qx as f64 - x as f64, qy as f64 - y as f64);
-                        let f2 = (dx * fx[p]).powi(2) + (dy * fy[p]).powi(2);
-                        let t = term(film.normal[p].distance_squared(film.normal[q]), sn2)
-                            + term(
-                                film.position[p].distance_squared(film.position[q]),
-                                sx2 * f2,
-                            );
-                        if t > std::f64::consts::LN_2 {
-                            continue;
-                        }
+                    let d = (qx as f64 - x as f64, qy as f64 - y as f64);
+                    let Some(t) = surface.exponent(p, q, d) else {
+                        continue;
+                    };
+                    if t > std::f64::consts::LN_2 {
+                        continue;
                     }
                     vals[n] = c;
                     n += 1;
