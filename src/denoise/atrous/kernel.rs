@@ -1,5 +1,6 @@
 //! The filter's inner loops: the weights of a tap for a run of pixels (branch-free `f32`, so
-//! they vectorise), and the per-row sweeps of a pass that sum those weights or apply them.
+//! they vectorise), and the per-row sweeps of a pass that sum those weights or apply them,
+//! compiled for AVX2 where the CPU has it (`simd::wide!`).
 
 use super::guides::{ALBEDO, FOOT_X, FOOT_Y, MISSED, NORMAL, POSITION, POSITION_LO, VAR};
 use super::guides::{CHANNELS, COLOR_PLANES, Guides, PLANES, plane};

@@ -65,6 +65,11 @@
 //! **Missing data**: a non-finite colour never contributes. A non-finite pixel is filled from
 //! the valid taps that pass the guide tests (colour term left out); if it has none, it is left
 //! exactly as it was.
+//!
+//! The code: `options` (the settings and what they mean for each pass), `guides` (every
+//! pixel's guides, prepared once and packed as `f32` planes), `kernel` (the vectorised tap
+//! weights and the row sweeps of a pass) and here the driver that runs the passes; `reference`
+//! (tests only) is the plain `f64` filter the optimised one is checked against.
 
 mod guides;
 mod kernel;
