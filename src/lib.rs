@@ -8,7 +8,7 @@
 //! ```text
 //! .4ds source --syntax--> AST --check--> typed scene (scene::Scene)
 //!   --compile--> per-frame programs: SDF IR (ir), optimised, as bytecode tapes (vm)
-//!   --render--> films (render::film) --denoise--> --output--> GIF / PNG / EXR
+//!   --render--> films (film) --denoise--> --output--> GIF / PNG / EXR
 //! ```
 //!
 //! - [`Compilation`] loads a file (with its imports) or a string, parses it, checks it and
@@ -59,6 +59,7 @@ pub mod compile;
 pub mod denoise;
 pub mod diagnostic;
 pub mod error;
+pub mod film;
 #[doc(hidden)]
 pub mod ir;
 #[doc(hidden)]
@@ -68,6 +69,8 @@ pub mod metrics;
 pub mod output;
 pub mod render;
 pub mod scene;
+#[doc(hidden)]
+pub mod simd;
 pub mod source;
 #[doc(hidden)]
 pub mod sweep;

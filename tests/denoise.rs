@@ -3,7 +3,7 @@
 
 use glam::{DVec3, DVec4};
 use hyperslice::denoise::{AtrousOptions, Filter, Temporal, denoise, median::medians};
-use hyperslice::render::film::Film;
+use hyperslice::film::Film;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 

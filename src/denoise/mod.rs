@@ -15,7 +15,7 @@
 pub mod atrous;
 pub mod median;
 
-use crate::render::film::Film;
+use crate::film::Film;
 use crate::scene::Denoise;
 
 pub use atrous::{AtrousOptions, Temporal};

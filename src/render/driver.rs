@@ -6,13 +6,13 @@
 //! with a time budget, a pass starts only if it is expected to end within the budget; with a
 //! noise threshold, a pixel stops taking samples once its relative standard error is below it.
 
-use super::film::{Film, PixelSums};
 use super::frame::{Features, FrameScene};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
 use super::sampler::SamplerKind;
 use crate::compile::{Compiled, frame_time};
 use crate::error::{Error, Result};
+use crate::film::{Film, PixelSums};
 use crate::scene::Scene;
 use glam::DVec4;
 use rayon::prelude::*;

@@ -24,7 +24,6 @@
 //! thread count; with it off no extra numbers are drawn and the estimator is plain BSDF sampling.
 
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
-use super::film::PixelSums;
 use super::frame::FrameScene;
 use super::lights::Lights;
 use super::march::{Hit, Limits, Marcher, Ray, epsilon_at};
@@ -32,6 +31,7 @@ use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
+use crate::film::PixelSums;
 use crate::ir::Var;
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};

@@ -3,13 +3,13 @@
 //! Light-transport building blocks, each a small self-contained module checked numerically in
 //! `tests/physics_samplers.rs`: `sampling` (frames, uniform and cosine samplers, Fresnel),
 //! `bsdf` (surface scattering) and `phase` (scattering in media). On top of them: `frame`
-//! (per-frame tapes and camera), `march` (sphere tracing on packets), `material`, `integrator`
-//! (the path tracer) and `film` (per-pixel buffers); `render` drives them over tiles and frames.
+//! (per-frame tapes and camera), `march` (sphere tracing on packets), `material` and `integrator`
+//! (the path tracer, accumulating into `crate::film`'s per-pixel buffers); `driver` runs them
+//! over tiles and frames.
 
 pub mod bsdf;
 pub mod camera;
 pub mod driver;
-pub mod film;
 pub mod frame;
 pub mod integrator;
 pub mod lights;

@@ -5,6 +5,7 @@
 use super::tape::{Instr, Tape};
 use crate::ir::{Bin, Un};
 use crate::math::kernel::{self as eval, Real};
+use crate::simd;
 
 /// Registers of one packet.
 pub struct Regs<T, const N: usize> {
@@ -37,21 +38,8 @@ impl<T: Real, const N: usize> Regs<T, N> {
 /// Run `tape` over the packet in `regs`, whose input registers are already filled.
 pub fn run<T: Real, const N: usize>(tape: &Tape, regs: &mut Regs<T, N>) {
     assert!(regs.r.len() >= tape.regs, "registers sized for the tape");
-    #[cfg(target_arch = "x86_64")]
-    if N > 1 && std::is_x86_feature_detected!("avx2") && std::is_x86_feature_detected!("fma") {
-        // SAFETY: the CPU supports the features just detected.
-        unsafe { run_avx2(&tape.code, &mut regs.r) };
-        return;
-    }
-    run_code(&tape.code, &mut regs.r);
-}
-
-/// The same loop compiled with AVX2 (and SSE4.1's rounding instructions, so `floor` and
-/// `round` stay inline instead of calling the C library).
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-fn run_avx2<T: Real, const N: usize>(code: &[Instr], r: &mut [[T; N]]) {
-    run_code(code, r)
+    // One lane has nothing to vectorise: no feature check per point.
+    simd::wide!(N > 1, run_code(&tape.code, &mut regs.r))
 }
 
 /// Lanes of a destination and its operands. Registers written by an instruction are never

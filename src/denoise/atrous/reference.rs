@@ -1,12 +1,12 @@
 //! The a-trous filter written plainly, in `f64`, one pixel and one tap at a time: the
 //! reference the optimised filter (`f32` guide planes, blocked rows, vectorised taps) is
-//! checked against. It shares the guide preparation with the filter, so what it checks is
-//! the passes.
+//! checked against. It shares the guide preparation, the passes' settings and the final
+//! remodulation with the filter, so what it checks is the passes.
 
 use super::super::{Film, compatible, consistent};
+use super::guides::{Prepared, prepare};
 use super::{
-    AtrousOptions, B3, FRAME_WEIGHTS, MAX_PASSES, Prepared, Temporal, filtered as optimised,
-    offset, prepare, term,
+    AtrousOptions, B3, FRAME_WEIGHTS, Temporal, filtered as optimised, offset, remodulated, term,
 };
 use glam::{DVec3, DVec4};
 use rand::{Rng, SeedableRng};
@@ -14,7 +14,7 @@ use rand_pcg::Pcg64;
 use rayon::prelude::*;
 
 /// The exponent beyond which a tap is dropped (the optimised filter's `CUTOFF`).
-const CUTOFF: f64 = super::CUTOFF as f64;
+const CUTOFF: f64 = super::kernel::CUTOFF as f64;
 
 /// A frame's prepared guides and its film.
 struct Guides<'f> {
@@ -48,13 +48,9 @@ fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>> {
             None => Vec::new(),
         })
         .collect();
-    for pass in 0..opts.passes.min(MAX_PASSES) {
-        let temporal = match opts.temporal {
-            Temporal::Off => false,
-            Temporal::FirstPass => pass == 0,
-            Temporal::AllPasses => true,
-        };
-        let sc = opts.sigma_color * opts.sigma_color_decay.powi(pass as i32);
+    for pass in opts.pass_range() {
+        let temporal = opts.temporal.reaches(pass);
+        let sc = opts.sigma_color_at(pass);
         let step = Pass {
             guides: &guides,
             cur: &cur,
@@ -76,18 +72,7 @@ fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>> {
         .zip(cur)
         .map(|(g, c)| {
             let g = g.as_ref()?;
-            Some(
-                g.film
-                    .color
-                    .iter()
-                    .zip(c)
-                    .zip(&g.g.albedo)
-                    .map(|((orig, c), a)| {
-                        let v = c * *a;
-                        if v.is_finite() { v } else { *orig }
-                    })
-                    .collect(),
-            )
+            Some(remodulated(g.film, &g.g.albedo, |p| c[p]))
         })
         .collect()
 }

@@ -1,5 +1,8 @@
 //! The film of one frame: the mean radiance of every pixel, its spread, and the first-hit
 //! buffers that guide denoising (albedo, 4D normal, 4D position, depth).
+//!
+//! A module of its own, not part of `render`: the renderer fills films and `denoise` filters
+//! them, and neither needs the other.
 
 use crate::output::HdrImage;
 use glam::{DVec3, DVec4};
