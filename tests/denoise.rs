@@ -2,8 +2,9 @@
 //! floating sphere, a sky, Gaussian or skewed Monte Carlo noise with a known standard error.
 
 use glam::{DVec3, DVec4};
-use hyperslice::denoise::{AtrousOptions, Filter, Temporal, denoise, median::medians};
+use hyperslice::denoise::{AtrousOptions, Temporal, denoise, median::medians};
 use hyperslice::film::Film;
+use hyperslice::scene::Denoise;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64;
 
@@ -157,7 +158,7 @@ fn atrous_reduces_noise_and_keeps_edges() {
     let sigma = 0.08;
     let noisy_film = noisy(&truth, &region, sigma, &mut rng);
     let mut frames = vec![noisy_film.clone()];
-    denoise(&mut frames, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::Atrous, &AtrousOptions::default());
     let out = &frames[0].color;
 
     let flat = |p: usize| {
@@ -208,7 +209,7 @@ fn atrous_reduces_noise_and_keeps_edges() {
 
     // The edge check has teeth: the same kernel without its edge-stopping guides bleeds.
     let mut blurred = vec![noisy_film];
-    denoise(&mut blurred, Filter::Atrous, &no_guides());
+    denoise(&mut blurred, Denoise::Atrous, &no_guides());
     let (bias, _) = check_edges(&blurred[0].color, "plain B3 blur");
     assert!(
         bias > 0.05,
@@ -228,7 +229,7 @@ fn shaded_sphere_keeps_its_gradient() {
     let mut rng = Pcg64::seed_from_u64(1);
     let noisy_film = noisy(&truth, &region, 0.08, &mut rng);
     let mut frames = vec![noisy_film.clone()];
-    denoise(&mut frames, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::Atrous, &AtrousOptions::default());
     let out = &frames[0].color;
     let sphere = |p: usize| region[p] == SPHERE;
     let silhouette = |p: usize| region[p] == SPHERE && edge_distance(&region, w, h, p, 1) == 0;
@@ -272,7 +273,7 @@ fn textures_stay_sharp_by_demodulation() {
     }
     let before = rmse(&f.color, &truth.color, |_| true);
     let mut frames = vec![f];
-    denoise(&mut frames, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::Atrous, &AtrousOptions::default());
     let after = rmse(&frames[0].color, &truth.color, |_| true);
     let bias = mean_error(&frames[0].color, &truth.color, |p| truth.albedo[p].x > 0.5);
     println!(
@@ -338,12 +339,12 @@ fn atrous_keeps_mean_luminance_where_median_darkens() {
     let noisy_rmse = red_rmse(&frames);
 
     let mut a = frames.clone();
-    denoise(&mut a, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut a, Denoise::Atrous, &AtrousOptions::default());
     let a_mean = mean_luminance(&a);
     let a_rmse = red_rmse(&a);
 
     let mut m = frames.clone();
-    denoise(&mut m, Filter::Median, &AtrousOptions::default());
+    denoise(&mut m, Denoise::Median, &AtrousOptions::default());
     let m_mean = mean_luminance(&m);
 
     let rel = |x: f64| x / truth - 1.0;
@@ -396,9 +397,9 @@ fn bias_at_low_sample_counts() {
         mean_luminance(&f) / noisy_mean - 1.0
     };
     let (flux, plain, median) = (
-        run(Filter::Atrous, true),
-        run(Filter::Atrous, false),
-        run(Filter::Median, true),
+        run(Denoise::Atrous, true),
+        run(Denoise::Atrous, false),
+        run(Denoise::Median, true),
     );
     println!(
         "8 spp skewed noise, mean relative to the noisy mean (noisy itself {:+.4} off the truth): \
@@ -432,7 +433,7 @@ fn median_removes_a_firefly() {
         let med = medians(&frames);
         let m = med[k].as_ref().unwrap()[p];
         assert!((m - DVec3::splat(0.5)).abs().max_element() < 0.1);
-        denoise(&mut frames, Filter::Median, &AtrousOptions::default());
+        denoise(&mut frames, Denoise::Median, &AtrousOptions::default());
         let c = frames[k].color[p];
         println!("{n_frames} frame(s): firefly 1000 -> {c:?}");
         assert!(
@@ -456,7 +457,7 @@ fn median_erodes_a_thin_line() {
         f.color[y * 16 + 8] = DVec3::ONE;
     }
     let mut frames = vec![f];
-    denoise(&mut frames, Filter::Median, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::Median, &AtrousOptions::default());
     assert!(frames[0].color.iter().all(|c| *c == DVec3::ZERO));
 }
 
@@ -514,7 +515,7 @@ fn spatio_temporal_atrous_does_not_ghost_but_helps_static_regions() {
     };
 
     let mut st = frames.clone();
-    denoise(&mut st, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut st, Denoise::Atrous, &AtrousOptions::default());
     let ghost_bias = mean_error(&st[1].color, &truths[1], ghost).max_element();
     let ghost_rmse = rmse(&st[1].color, &truths[1], ghost);
     println!(
@@ -525,7 +526,7 @@ fn spatio_temporal_atrous_does_not_ghost_but_helps_static_regions() {
 
     // The static background gains from the neighbouring frames.
     let mut single = vec![frames[1].clone()];
-    denoise(&mut single, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut single, Denoise::Atrous, &AtrousOptions::default());
     let noisy = rmse(&frames[1].color, &truths[1], stat);
     let alone = rmse(&single[0].color, &truths[1], stat);
     let together = rmse(&st[1].color, &truths[1], stat);
@@ -534,7 +535,7 @@ fn spatio_temporal_atrous_does_not_ghost_but_helps_static_regions() {
         temporal: Temporal::FirstPass,
         ..AtrousOptions::default()
     };
-    denoise(&mut first, Filter::Atrous, &first_opts);
+    denoise(&mut first, Denoise::Atrous, &first_opts);
     let first_only = rmse(&first[1].color, &truths[1], stat);
     println!(
         "static background RMSE: noisy {noisy:.4}, single frame {alone:.4}, \
@@ -553,7 +554,7 @@ fn spatio_temporal_atrous_does_not_ghost_but_helps_static_regions() {
         sigma_color: f64::INFINITY,
         ..AtrousOptions::default()
     };
-    denoise(&mut bad, Filter::Atrous, &opts);
+    denoise(&mut bad, Denoise::Atrous, &opts);
     let bad_bias = mean_error(&bad[1].color, &truths[1], ghost).max_element();
     println!("without position/colour guides: ghost bias {bad_bias:+.4}");
     assert!(bad_bias > 0.05);
@@ -575,14 +576,14 @@ fn one_sample_films_use_a_spatial_noise_estimate() {
     };
     let before = rmse(&f.color, &truth.color, flat);
     let mut frames = vec![f];
-    denoise(&mut frames, Filter::Atrous, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::Atrous, &AtrousOptions::default());
     let after = rmse(&frames[0].color, &truth.color, flat);
     println!("no std_error (spatial estimate): RMSE {before:.4} -> {after:.4}");
     assert!(after * 3.0 < before);
 }
 
-fn all_filters() -> [Filter; 3] {
-    [Filter::None, Filter::Median, Filter::Atrous]
+fn all_filters() -> [Denoise; 3] {
+    [Denoise::None, Denoise::Median, Denoise::Atrous]
 }
 
 #[test]
@@ -669,7 +670,7 @@ fn nan_pixels_do_not_spread() {
     f.position[51 * w + 70] = DVec4::splat(f64::INFINITY);
     f.std_error[52 * w + 30] = DVec3::splat(f64::NAN);
     f.albedo[12 * w + 12] = DVec3::splat(f64::NAN);
-    for filter in [Filter::Median, Filter::Atrous] {
+    for filter in [Denoise::Median, Denoise::Atrous] {
         let mut frames = vec![f.clone(), f.clone(), f.clone()];
         denoise(&mut frames, filter, &AtrousOptions::default());
         for fr in &frames {
@@ -710,7 +711,7 @@ fn filter_none_is_bit_identical() {
     let mut f = noisy(&truth, &region, 0.08, &mut rng);
     f.color[3] = DVec3::new(f64::NAN, -0.0, f64::INFINITY);
     let mut frames = vec![f.clone(), f.clone()];
-    denoise(&mut frames, Filter::None, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::None, &AtrousOptions::default());
     for fr in &frames {
         let bits = |c: &Vec<DVec3>| {
             c.iter()
@@ -719,14 +720,6 @@ fn filter_none_is_bit_identical() {
         };
         assert_eq!(bits(&fr.color), bits(&f.color));
     }
-}
-
-#[test]
-fn filter_from_scene_setting() {
-    use hyperslice::scene::Denoise;
-    assert_eq!(Filter::from(Denoise::None), Filter::None);
-    assert_eq!(Filter::from(Denoise::Median), Filter::Median);
-    assert_eq!(Filter::from(Denoise::Atrous), Filter::Atrous);
 }
 
 #[test]
@@ -753,7 +746,7 @@ fn timing() {
         let t = std::time::Instant::now();
         denoise(
             &mut fr,
-            Filter::Atrous,
+            Denoise::Atrous,
             &AtrousOptions {
                 conserve,
                 ..AtrousOptions::default()
@@ -762,6 +755,6 @@ fn timing() {
         println!("{n}x{n}x3 a-trous (conserve {conserve}): {:?}", t.elapsed());
     }
     let t = std::time::Instant::now();
-    denoise(&mut frames, Filter::Median, &AtrousOptions::default());
+    denoise(&mut frames, Denoise::Median, &AtrousOptions::default());
     println!("{n}x{n}x3 median: {:?}", t.elapsed());
 }

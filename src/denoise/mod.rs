@@ -20,35 +20,12 @@ use crate::scene::Denoise;
 
 pub use atrous::{AtrousOptions, Temporal};
 
-/// Which filter `denoise` applies.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub enum Filter {
-    /// Leave every colour bit-identical.
-    #[default]
-    None,
-    /// Median over 3x3 pixels times 3 frames, per channel (the seed's filter; biased dark).
-    Median,
-    /// Edge-avoiding spatio-temporal a-trous wavelet filter, guided by albedo, 4D normal and 4D
-    /// position, with colour weights relative to each pixel's standard error.
-    Atrous,
-}
-
-impl From<Denoise> for Filter {
-    fn from(d: Denoise) -> Filter {
-        match d {
-            Denoise::None => Filter::None,
-            Denoise::Median => Filter::Median,
-            Denoise::Atrous => Filter::Atrous,
-        }
-    }
-}
-
-/// Denoise every frame's `color` in place; `opts` is used by [`Filter::Atrous`] only.
-pub fn denoise(frames: &mut [Film], filter: Filter, opts: &AtrousOptions) {
+/// Denoise every frame's `color` in place; `opts` is used by [`Denoise::Atrous`] only.
+pub fn denoise(frames: &mut [Film], filter: Denoise, opts: &AtrousOptions) {
     match filter {
-        Filter::None => {}
-        Filter::Median => median::median(frames),
-        Filter::Atrous => atrous::atrous(frames, opts),
+        Denoise::None => {}
+        Denoise::Median => median::median(frames),
+        Denoise::Atrous => atrous::atrous(frames, opts),
     }
 }
 

@@ -313,9 +313,8 @@ pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> R
         }
     }
     let denoise_start = Instant::now();
-    let filter = crate::denoise::Filter::from(r.denoise);
     let options = crate::denoise::AtrousOptions::default();
-    pool.install(|| crate::denoise::denoise(&mut frames, filter, &options));
+    pool.install(|| crate::denoise::denoise(&mut frames, r.denoise, &options));
     Ok(Rendered {
         frames,
         stats,
