@@ -87,6 +87,26 @@ pub fn binary_type(op: BinOp, a: &Type, b: &Type) -> Result<Type, &'static str> 
     }
 }
 
+/// The field operator of a binary operator whose operands vary per point or frame (ranges and
+/// image sizes are constants, so they never get here; they become `+`).
+fn field_bin(op: BinOp) -> FieldBin {
+    match op {
+        BinOp::Sub => FieldBin::Sub,
+        BinOp::Mul => FieldBin::Mul,
+        BinOp::Div => FieldBin::Div,
+        BinOp::Mod => FieldBin::Mod,
+        BinOp::Lt => FieldBin::Lt,
+        BinOp::Le => FieldBin::Le,
+        BinOp::Gt => FieldBin::Gt,
+        BinOp::Ge => FieldBin::Ge,
+        BinOp::Eq => FieldBin::Eq,
+        BinOp::Ne => FieldBin::Ne,
+        BinOp::And => FieldBin::And,
+        BinOp::Or => FieldBin::Or,
+        BinOp::Add | BinOp::Range | BinOp::Dims => FieldBin::Add,
+    }
+}
+
 /// `a op b` on constants whose types passed `binary_type`.
 pub fn const_binary(op: BinOp, a: &Value, b: &Value, ty: &Type) -> Value {
     match (op, a, b) {
@@ -190,7 +210,7 @@ pub fn binary(
             );
         }
         let (la, lb) = (ck.lift(&a), ck.lift(&b));
-        return ck.field(FieldOp::Binary(op, la, lb), ty);
+        return ck.field(FieldOp::Binary(field_bin(op), la, lb), ty);
     }
     match (op, &a, &b) {
         (BinOp::Range, Value::Num(lo), Value::Num(hi)) => range(ck, *lo, *hi, aspan, bspan, span),
@@ -254,6 +274,10 @@ pub fn unary(ck: &mut Checker, op: UnOp, v: Value, span: Span) -> Value {
     }
     if ck.deps(&v) != 0 {
         let a = ck.lift(&v);
+        let op = match op {
+            UnOp::Neg => Un::Neg,
+            UnOp::Not => Un::Not,
+        };
         return ck.field(FieldOp::Unary(op, a), ty);
     }
     match (op, &v) {

@@ -9,8 +9,8 @@ use std::rc::Rc;
 pub use crate::math::Plane;
 pub use crate::scene::field::{DEP_N, DEP_P, describe_deps};
 pub use crate::scene::{
-    Const, FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn, Num, Param,
-    Rotation, Shape, ShapeKind, Slot, Type,
+    Const, FieldBin, FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn, Num,
+    Param, Rotation, Shape, ShapeKind, Slot, Type,
 };
 
 /// A callable value.

@@ -8,10 +8,9 @@ use crate::math::plane::rotation as rotation_matrix;
 use crate::scene::field::{DEP_N, DEP_P};
 use crate::scene::shape::{Num, Vector};
 use crate::scene::{
-    Const, FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn, Object, Param,
-    Polytope, Scene, Shape, ShapeKind, Slot,
+    Const, FieldBin, FieldId, FieldOp, Fields, Input, Lattice, Material, MaterialKind, MathFn,
+    Object, Param, Polytope, Scene, Shape, ShapeKind, Slot,
 };
-use crate::syntax::ast::{BinOp, UnOp};
 use std::collections::HashMap;
 
 /// The lowered scene: one graph, with roots for each object and for the whole scene.
@@ -422,11 +421,7 @@ impl Lower<'_> {
             FieldOp::Const(c) => self.constant(c, env),
             FieldOp::Unary(op, a) => {
                 let a = self.field(*a, env);
-                let op = match op {
-                    UnOp::Neg => Un::Neg,
-                    UnOp::Not => Un::Not,
-                };
-                let ids = a.lanes().iter().map(|x| self.un(op, *x)).collect();
+                let ids = a.lanes().iter().map(|x| self.un(*op, *x)).collect();
                 a.with(ids)
             }
             FieldOp::Binary(op, a, b) => {
@@ -502,33 +497,32 @@ impl Lower<'_> {
         }
     }
 
-    fn binary(&mut self, op: BinOp, a: Lv, b: Lv) -> Lv {
+    fn binary(&mut self, op: FieldBin, a: Lv, b: Lv) -> Lv {
         let reduce = |l: &mut Self, op: Bin, ids: Vec<Id>| {
             ids.into_iter()
                 .reduce(|x, y| l.bin(op, x, y))
                 .expect("a value has lanes")
         };
         match op {
-            BinOp::Add => self.zip(Bin::Add, &a, &b),
-            BinOp::Sub => self.zip(Bin::Sub, &a, &b),
-            BinOp::Mul => self.zip(Bin::Mul, &a, &b),
-            BinOp::Div => self.zip(Bin::Div, &a, &b),
-            BinOp::Mod => self.zip(Bin::Mod, &a, &b),
-            BinOp::Lt => self.zip(Bin::Lt, &a, &b),
-            BinOp::Le => self.zip(Bin::Le, &a, &b),
-            BinOp::Gt => self.zip(Bin::Lt, &b, &a),
-            BinOp::Ge => self.zip(Bin::Le, &b, &a),
-            BinOp::And => self.zip(Bin::And, &a, &b),
-            BinOp::Or => self.zip(Bin::Or, &a, &b),
-            BinOp::Eq => {
+            FieldBin::Add => self.zip(Bin::Add, &a, &b),
+            FieldBin::Sub => self.zip(Bin::Sub, &a, &b),
+            FieldBin::Mul => self.zip(Bin::Mul, &a, &b),
+            FieldBin::Div => self.zip(Bin::Div, &a, &b),
+            FieldBin::Mod => self.zip(Bin::Mod, &a, &b),
+            FieldBin::Lt => self.zip(Bin::Lt, &a, &b),
+            FieldBin::Le => self.zip(Bin::Le, &a, &b),
+            FieldBin::Gt => self.zip(Bin::Lt, &b, &a),
+            FieldBin::Ge => self.zip(Bin::Le, &b, &a),
+            FieldBin::And => self.zip(Bin::And, &a, &b),
+            FieldBin::Or => self.zip(Bin::Or, &a, &b),
+            FieldBin::Eq => {
                 let eq = self.zip(Bin::Eq, &a, &b).lanes();
                 Lv::S(reduce(self, Bin::And, eq))
             }
-            BinOp::Ne => {
+            FieldBin::Ne => {
                 let ne = self.zip(Bin::Ne, &a, &b).lanes();
                 Lv::S(reduce(self, Bin::Or, ne))
             }
-            BinOp::Range | BinOp::Dims => unreachable!("not a field operation"),
         }
     }
 

@@ -5,7 +5,6 @@ use super::lattice::Lattice;
 use super::material::Material;
 use super::types::Type;
 use crate::math::{Bin, Un};
-use crate::syntax::ast::{BinOp, UnOp};
 use std::rc::Rc;
 
 /// Inputs a field may depend on, as bit flags.
@@ -166,12 +165,54 @@ impl MathFn {
     }
 }
 
+/// A binary operator of a field expression: componentwise arithmetic and comparisons, and
+/// `==` / `!=` over whole values.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FieldBin {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Mod,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    And,
+    Or,
+}
+
+impl FieldBin {
+    /// The operator as the language writes it.
+    pub fn symbol(self) -> &'static str {
+        use FieldBin::*;
+        match self {
+            Add => "+",
+            Sub => "-",
+            Mul => "*",
+            Div => "/",
+            Mod => "mod",
+            Lt => "<",
+            Le => "<=",
+            Gt => ">",
+            Ge => ">=",
+            Eq => "==",
+            Ne => "!=",
+            And => "&&",
+            Or => "||",
+        }
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub enum FieldOp {
     Input(Input),
     Const(Const),
-    Unary(UnOp, FieldId),
-    Binary(BinOp, FieldId, FieldId),
+    /// `-x` (`Un::Neg`) or `!x` (`Un::Not`), per component.
+    Unary(Un, FieldId),
+    Binary(FieldBin, FieldId, FieldId),
     Math(MathFn, Vec<FieldId>),
     Component(FieldId, u8),
     MakeVec4([FieldId; 4]),

@@ -10,7 +10,7 @@ pub mod print;
 pub mod shape;
 pub mod types;
 
-pub use field::{Const, FieldId, FieldOp, Fields, Input, MathFn, Param};
+pub use field::{Const, FieldBin, FieldId, FieldOp, Fields, Input, MathFn, Param};
 pub use lattice::Lattice;
 pub use material::{Material, MaterialKind, Slot};
 pub use print::Num;

@@ -6,7 +6,7 @@ use super::field::{Const, FieldId, FieldOp, Fields, Input, Param};
 use super::lattice::Lattice;
 use super::material::{Material, Slot};
 use super::shape::{ParamRef, Rotation, Shape};
-use crate::syntax::ast::UnOp;
+use crate::math::Un;
 use std::collections::HashMap;
 use std::fmt::{self, Write};
 use std::rc::Rc;
@@ -111,7 +111,7 @@ impl Printer<'_> {
             FieldOp::Input(Input::T) => "t".to_string(),
             FieldOp::Const(c) => self.constant(c),
             FieldOp::Unary(op, a) => {
-                format!("{}{}", if *op == UnOp::Neg { "-" } else { "!" }, f(self, a))
+                format!("{}{}", if *op == Un::Neg { "-" } else { "!" }, f(self, a))
             }
             FieldOp::Binary(op, a, b) => format!("{} {} {}", f(self, a), op.symbol(), f(self, b)),
             FieldOp::Math(m, xs) => format!("{}({})", m.name(), list(self, xs)),
