@@ -25,13 +25,13 @@ pub fn has_avx2_fma() -> bool {
 
 /// `simd::wide!(body)` evaluates the expression `body` compiled with AVX2 and FMA when the CPU
 /// has them, else as it is; `simd::wide!(worth, body)` only checks the CPU where `worth` (say,
-/// whether there are lanes to vectorise) holds. `body` is the tail of its function: a `return`
-/// in it returns from the wide copy only.
+/// whether there are lanes to vectorise) holds. On the wide path `body` runs in a closure, so
+/// a `return`, `?` or `break` in it would act on the closure: keep them out of it.
 ///
 /// A macro, not a function taking a closure, so that the `#[target_feature]` wrapper is an item
-/// of the caller's module and compiled in the caller's codegen unit: the VM's one-point
-/// interpreter (same module, no wrapper) ran 8-13% slower in `hyperslice-bench` with the
-/// wrapper in this module's.
+/// of the caller's module and compiled in the caller's codegen unit: with the wrapper in this
+/// module's, the VM's one-point interpreter (which has no wrapper) was compiled differently and
+/// ran 8-13% slower in `hyperslice-bench`.
 #[macro_export]
 macro_rules! wide {
     ($body:expr) => {
