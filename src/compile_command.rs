@@ -2,8 +2,8 @@
 //! against a file written earlier (a snapshot test for users without Rust).
 
 use clap::{Args, ValueEnum};
+use hyperslice::output;
 use hyperslice::{At, Compilation};
-use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -69,10 +69,10 @@ pub fn run(args: CompileArgs, color: bool) -> ExitCode {
     }
     .unwrap_or_default();
     if let Some(path) = &args.out {
-        return match write_atomic(path, &args.file, &text) {
+        return match output::write_derived(path, &args.file, text.as_bytes()) {
             Ok(()) => ExitCode::SUCCESS,
             Err(e) => {
-                eprintln!("error: cannot write `{}`: {e}", path.display());
+                eprintln!("error: {e}");
                 ExitCode::FAILURE
             }
         };
@@ -82,26 +82,6 @@ pub fn run(args: CompileArgs, color: bool) -> ExitCode {
     }
     print!("{text}");
     ExitCode::SUCCESS
-}
-
-/// Write through a temporary file beside `path`, so a failed write leaves no half file; the
-/// scene itself is never overwritten.
-fn write_atomic(path: &Path, scene: &Path, text: &str) -> std::io::Result<()> {
-    let same = |a: &Path, b: &Path| match (a.canonicalize(), b.canonicalize()) {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    if same(path, scene) {
-        return Err(std::io::Error::other("that is the scene file itself"));
-    }
-    let dir = match path.parent() {
-        Some(d) if !d.as_os_str().is_empty() => d,
-        _ => Path::new("."),
-    };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir)?;
-    tmp.write_all(text.as_bytes())?;
-    tmp.persist(path).map_err(|e| e.error)?;
-    Ok(())
 }
 
 /// Exit 0 when `path` holds exactly `text`; otherwise print a line diff and exit 1.

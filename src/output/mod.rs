@@ -524,6 +524,18 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
     persist(tmp, path)
 }
 
+/// [`write_atomic`] for a file made from the scene `input` (such as its compiled IR), refusing
+/// to overwrite the scene itself.
+pub fn write_derived(path: &Path, input: &Path, bytes: &[u8]) -> Result<(), OutputError> {
+    if same_file(path, input) {
+        return Err(OutputError::IsInput {
+            path: path.to_path_buf(),
+        });
+    }
+    check_directory(path)?;
+    write_atomic(path, bytes)
+}
+
 /// [`OutputError::Io`] on `path`.
 fn io_error(path: &Path) -> impl Fn(io::Error) -> OutputError + Copy + '_ {
     move |source| OutputError::Io {
