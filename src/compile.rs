@@ -6,9 +6,9 @@
 //! lights' placement from the same IR in `f64`. `--emit ir|bytecode` prints exactly this
 //! program, so what a user pins is what is rendered.
 
-use crate::ir::eval::Reference;
-use crate::ir::lower::Place;
-use crate::ir::{self, Id, SceneIr, Var, opt};
+use crate::ir::eval::{Reference, vars};
+use crate::ir::lower::{LightIr, Place};
+use crate::ir::{self, Id, SceneIr, opt};
 use crate::math::Plane;
 use crate::math::plane::rotate;
 use crate::scene::Scene;
@@ -58,43 +58,11 @@ impl Compiled {
         let mut roots: Vec<Id> = self.ir.look.iter().map(|(_, a)| *a).collect();
         roots.extend(self.ir.lights.iter().flat_map(|l| l.ids()));
         let mut reference = Reference::new(&self.ir.graph, &roots);
-        let mut vars = [0.0; 9];
-        vars[Var::T.index()] = t;
-        reference.run(&vars);
+        reference.run(&vars([0.0; 4], [0.0; 4], t));
         let get = |id: Id| reference.value(id);
         let look = (self.ir.look.iter()).map(|(p, a)| (*p, get(*a))).collect();
         let lights = (self.ir.lights.iter())
-            .filter_map(|l| {
-                // From the hypersphere outwards.
-                let mut center = [0.0; 4];
-                let mut radius = get(l.radius);
-                for place in l.places.iter().rev() {
-                    match place {
-                        Place::Translate(o) => {
-                            center = std::array::from_fn(|i| center[i] + get(o[i]))
-                        }
-                        Place::Rotate(steps) => {
-                            center = rotate(center, steps.iter().map(|(p, a)| (*p, get(*a))))
-                        }
-                        Place::Scale(k) => {
-                            let k = get(*k);
-                            if k.is_nan() || k <= 0.0 {
-                                return None;
-                            }
-                            center = center.map(|x| x * k);
-                            radius *= k;
-                        }
-                        Place::Round(r) => radius += get(*r),
-                    }
-                }
-                let usable =
-                    radius > 0.0 && radius.is_finite() && center.iter().all(|x| x.is_finite());
-                usable.then_some(LightPlacement {
-                    object: l.object,
-                    center,
-                    radius,
-                })
-            })
+            .filter_map(|l| placement(l, get))
             .collect();
         Frame {
             t,
@@ -103,6 +71,36 @@ impl Compiled {
             lights,
         }
     }
+}
+
+/// Where light `l` is, with its parameters read through `get`: from the hypersphere outwards
+/// through its operations. `None` when a scale is not positive or the result is not usable.
+fn placement(l: &LightIr, get: impl Fn(Id) -> f64) -> Option<LightPlacement> {
+    let mut center = [0.0; 4];
+    let mut radius = get(l.radius);
+    for place in l.places.iter().rev() {
+        match place {
+            Place::Translate(o) => center = std::array::from_fn(|i| center[i] + get(o[i])),
+            Place::Rotate(steps) => {
+                center = rotate(center, steps.iter().map(|(p, a)| (*p, get(*a))))
+            }
+            Place::Scale(k) => {
+                let k = get(*k);
+                if k.is_nan() || k <= 0.0 {
+                    return None;
+                }
+                center = center.map(|x| x * k);
+                radius *= k;
+            }
+            Place::Round(r) => radius += get(*r),
+        }
+    }
+    let usable = radius > 0.0 && radius.is_finite() && center.iter().all(|x| x.is_finite());
+    usable.then_some(LightPlacement {
+        object: l.object,
+        center,
+        radius,
+    })
 }
 
 /// The animation time of frame `f` of `frames`: 0 on the first, 1 on the last.

@@ -202,6 +202,6 @@ impl Compilation {
             At::Frame(f) => compile::frame_time(f, scene.render.frames),
             At::Time(t) => t,
         };
-        self.compiled().map(|c| c.program(Some(t)))
+        Some(compile::Compiled::new(scene).program(Some(t)))
     }
 }

@@ -120,7 +120,7 @@ impl MaterialIr {
             selector: f(self.selector),
             leaves: (self.leaves.iter())
                 .map(|l| {
-                    l.map(|_, p| match p {
+                    l.convert(|p| match p {
                         Slot::Num(x) => Slot::Num(f(*x)),
                         Slot::Color(c) => Slot::Color(c.map(&mut *f)),
                     })
@@ -399,7 +399,7 @@ impl Lower<'_> {
     }
 
     fn material(&mut self, m: &Material, env: Env) -> MaterialIr {
-        let leaf = m.map(|_, p| match p {
+        let leaf = m.convert(|p| match p {
             Slot::Num(x) => Slot::Num(self.num(x, env)),
             Slot::Color(c) => Slot::Color(self.color(c, env)),
         });

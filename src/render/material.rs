@@ -96,11 +96,15 @@ impl Medium {
     }
 }
 
+/// A parameter's first output in a material tape, and the builtin table's default that stands
+/// in for a non-finite value.
+type At = (usize, f64);
+
 /// Where each leaf's parameters sit among a material tape's outputs: each number's output,
 /// and each colour's first of three.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Layout {
-    leaves: Vec<Material<usize, usize>>,
+    leaves: Vec<Material<At, At>>,
 }
 
 impl Layout {
@@ -112,9 +116,9 @@ impl Layout {
         };
         let leaves = (leaves.iter())
             .map(|l| {
-                l.map(|_, p| match p {
-                    Slot::Num(_) => Slot::Num(next(1)),
-                    Slot::Color(_) => Slot::Color(next(3)),
+                l.map(|spec, p| match p {
+                    Slot::Num(_) => Slot::Num((next(1), spec.default.num())),
+                    Slot::Color(_) => Slot::Color((next(3), spec.default.num())),
                 })
             })
             .collect();
@@ -137,13 +141,12 @@ impl Layout {
         } else {
             0
         };
-        let m: Material<f64, DVec3> = self.leaves[i].map(|spec, p| {
-            let default = spec.default.num();
-            match p {
-                Slot::Num(at) => Slot::Num(finite(out[*at] as f64, default)),
-                Slot::Color(at) => Slot::Color(DVec3::from_array(std::array::from_fn(|k| {
+        let m: Material<f64, DVec3> = self.leaves[i].convert(|p| match p {
+            Slot::Num(&(at, default)) => Slot::Num(finite(out[at] as f64, default)),
+            Slot::Color(&(at, default)) => {
+                Slot::Color(DVec3::from_array(std::array::from_fn(|k| {
                     finite(out[at + k] as f64, default).max(0.0)
-                }))),
+                })))
             }
         });
         match m {

@@ -175,17 +175,100 @@ impl<N, C> Material<N, C> {
         Some(m)
     }
 
-    /// The same material with every parameter converted by `f`, which is also told the
-    /// parameter's table entry.
+    /// The same material with every parameter converted by `f`, in the table's order. It
+    /// allocates nothing, so it serves at every hit point.
+    pub fn convert<N2, C2>(
+        &self,
+        mut f: impl FnMut(Slot<&N, &C>) -> Slot<N2, C2>,
+    ) -> Material<N2, C2> {
+        fn num<N, C>(s: Slot<N, C>) -> N {
+            match s {
+                Slot::Num(x) => x,
+                Slot::Color(_) => unreachable!("a conversion keeps numbers and colours apart"),
+            }
+        }
+        fn color<N, C>(s: Slot<N, C>) -> C {
+            match s {
+                Slot::Color(c) => c,
+                Slot::Num(_) => unreachable!("a conversion keeps numbers and colours apart"),
+            }
+        }
+        // Fields are evaluated in the order written, which is the table's.
+        match self {
+            Material::Diffuse { albedo, emission } => {
+                let albedo = color(f(Slot::Color(albedo)));
+                let emission = color(f(Slot::Color(emission)));
+                Material::Diffuse { albedo, emission }
+            }
+            Material::Light {
+                color: c,
+                intensity,
+            } => {
+                let c = color(f(Slot::Color(c)));
+                Material::Light {
+                    color: c,
+                    intensity: num(f(Slot::Num(intensity))),
+                }
+            }
+            Material::Mirror { tint } => Material::Mirror {
+                tint: color(f(Slot::Color(tint))),
+            },
+            Material::Glass {
+                ior,
+                tint,
+                extinction,
+                albedo,
+            } => {
+                let ior = num(f(Slot::Num(ior)));
+                let tint = color(f(Slot::Color(tint)));
+                let extinction = num(f(Slot::Num(extinction)));
+                let albedo = color(f(Slot::Color(albedo)));
+                Material::Glass {
+                    ior,
+                    tint,
+                    extinction,
+                    albedo,
+                }
+            }
+            Material::Shiny {
+                roughness,
+                color: c,
+            } => {
+                let roughness = num(f(Slot::Num(roughness)));
+                Material::Shiny {
+                    roughness,
+                    color: color(f(Slot::Color(c))),
+                }
+            }
+            Material::Fog {
+                extinction,
+                albedo,
+                anisotropy,
+            } => {
+                let extinction = num(f(Slot::Num(extinction)));
+                let albedo = color(f(Slot::Color(albedo)));
+                let anisotropy = num(f(Slot::Num(anisotropy)));
+                Material::Fog {
+                    extinction,
+                    albedo,
+                    anisotropy,
+                }
+            }
+            Material::Air => Material::Air,
+        }
+    }
+
+    /// [`convert`](Material::convert), with `f` also told each parameter's table entry.
     pub fn map<N2, C2>(
         &self,
         mut f: impl FnMut(&'static ParamSpec, Slot<&N, &C>) -> Slot<N2, C2>,
     ) -> Material<N2, C2> {
-        let kind = self.kind();
-        let params = (kind.params().iter().zip(self.params()))
-            .map(|(spec, p)| f(spec, p))
-            .collect();
-        Material::from_params(kind, params).expect("a conversion keeps numbers and colours apart")
+        let specs = self.kind().params();
+        let mut k = 0;
+        self.convert(|p| {
+            k += 1;
+            f(&specs[k - 1], p)
+        })
     }
 }
 
