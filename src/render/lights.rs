@@ -3,7 +3,8 @@
 //! An object counts as a spherical light when its shape is a `hypersphere` under any chain of
 //! `translate`, `rotate`, `scale` (positive factor) and `round` (parameters constant or
 //! functions of the frame variable `t`), and its material is a plain `light(...)` whose colour
-//! and intensity do not depend on the point or the normal (see `frame.rs`). Every other emitter
+//! and intensity do not depend on the point or the normal (found in `ir::lower`, placed per frame by
+//! `compile`). Every other emitter
 //! (lights of other shapes, emissive `diffuse`, material maps) is found by BSDF sampling alone,
 //! which stays unbiased: the integrator gives those hits MIS weight 1.
 //!
