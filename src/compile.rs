@@ -19,6 +19,9 @@ use crate::vm::{ObjectTapes, Program, Tape};
 pub struct Compiled {
     /// The plain lowered IR, `t` free: the reference every optimised tape is tested against.
     pub ir: SceneIr,
+    /// Each object's bounding sphere (centre, radius) where the scene gives one for every
+    /// frame; `None` for unbounded shapes and ones that move.
+    pub bounds: Vec<Option<([f64; 4], f64)>>,
 }
 
 /// Where one spherical light is in one frame.
@@ -45,6 +48,7 @@ impl Compiled {
     pub fn new(scene: &Scene) -> Compiled {
         Compiled {
             ir: ir::lower(scene),
+            bounds: scene.objects.iter().map(|o| o.shape.bounds()).collect(),
         }
     }
 

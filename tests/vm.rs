@@ -5,9 +5,10 @@
 
 use hyperslice::Compilation;
 use hyperslice::ir;
+use hyperslice::ir::Var;
 use hyperslice::ir::eval::{Reference, vars};
+use hyperslice::ir::interval::{I, Intervals};
 use hyperslice::scene::Scene;
-use hyperslice::vm::interval::{self, I};
 use hyperslice::vm::{self, Dual, LANES, Program, Regs, Tape};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
@@ -231,28 +232,30 @@ fn interval_bounds_contain_every_value() {
     let mut rng = Pcg64Mcg::seed_from_u64(4);
     for file in scene_files() {
         let prog = hyperslice::compile::Compiled::new(&compile_file(&file)).program(None);
+        let g = &prog.ir.graph;
         let mut one = Regs::<f32, 1>::new(&prog.scene);
-        for tape in prog.tapes() {
-            for _ in 0..40 {
-                let c = random_point(&mut rng, 4.0);
-                let r = rng.random_range(0.0..1.5);
-                let n = random_unit(&mut rng);
-                let mut inputs = [I::point(0.0); 9];
-                for a in 0..4 {
-                    inputs[a] = I::new((c[a] - r) as f32, (c[a] + r) as f32);
-                    inputs[4 + a] = I::point(n[a] as f32);
-                }
-                inputs[8] = I::new(0.0, 1.0);
-                let bounds = interval::eval(tape, &inputs);
+        for _ in 0..40 {
+            let c = random_point(&mut rng, 4.0);
+            let r = rng.random_range(0.0..1.5);
+            let n = random_unit(&mut rng);
+            let vars = |v: Var| match v.index() {
+                a @ 0..4 => I::new(c[a] - r, c[a] + r),
+                a @ 4..8 => I::point(n[a - 4]),
+                _ => I::new(0.0, 1.0),
+            };
+            let bounds = Intervals::of(g, &vars, None);
+            for (tape, roots) in tapes_and_roots(&prog) {
                 for _ in 0..30 {
                     let p: [f32; 4] =
                         std::array::from_fn(|a| (c[a] + rng.random_range(-r..=r)) as f32);
                     let t = rng.random_range(0.0..1.0);
-                    let v = vm::eval_point(tape, &mut one, p, to32(n), t);
-                    for (b, x) in bounds.iter().zip(&v) {
+                    let v = vm::eval_point(tape, &mut one, p, to32(n), t as f32);
+                    for (root, x) in roots.iter().zip(&v) {
+                        let b = bounds.get(*root);
+                        let x = *x as f64;
                         let slack = 1e-4 * (1.0 + x.abs());
                         assert!(
-                            I::new(b.lo - slack, b.hi + slack).contains(*x),
+                            I::new(b.lo - slack, b.hi + slack).contains(x),
                             "{} tape {}: {x} outside {b:?} at {p:?}",
                             file.display(),
                             tape.name
@@ -262,6 +265,20 @@ fn interval_bounds_contain_every_value() {
             }
         }
     }
+}
+
+/// Every tape of a program with the graph roots it computes.
+fn tapes_and_roots(prog: &vm::Program) -> Vec<(&Tape, Vec<hyperslice::ir::Id>)> {
+    let ir = &prog.ir;
+    let mut out = vec![(&prog.scene, vec![ir.distance, ir.nearest])];
+    if let (Some(t), Some((d, n))) = (&prog.interior, ir.interior) {
+        out.push((t, vec![d, n]));
+    }
+    for (o, oi) in prog.objects.iter().zip(&ir.objects) {
+        out.push((&o.distance, vec![oi.distance]));
+        out.push((&o.material, oi.material.roots()));
+    }
+    out
 }
 
 /// No instruction writes a register it reads, and every register is in range.
@@ -554,4 +571,93 @@ fn emitted_bytecode_is_what_each_frame_renders() {
             assert_eq!(emitted, rendered, "{example} frame {f}");
         }
     }
+}
+
+/// Pruned tapes compute what the whole scene tape computes wherever they are used: at random
+/// points around the camera and the objects, and along the camera's rays, in the cell that
+/// holds each point (exact affine cells included; outside the cells' cube, a bound), for every example and test scene, on the
+/// first and last frame. Distances agree to f32 rounding; the nearest object agrees unless
+/// two objects are equally near there.
+#[test]
+fn pruned_cells_agree_with_the_whole_tape() {
+    use glam::DVec4;
+    use hyperslice::render::frame::{Features, FrameScene};
+    let mut rng = Pcg64Mcg::seed_from_u64(12);
+    let (mut checked, mut pruned) = (0usize, 0usize);
+    for file in scene_files() {
+        let scene = compile_file(&file);
+        let compiled = hyperslice::compile::Compiled::new(&scene);
+        for t in [0.0, 1.0] {
+            let fs = FrameScene::new(&scene, &compiled, Features::of(&compiled), t);
+            let mut one = Regs::<f32, 1>::new(&fs.scene);
+            let cam = fs.camera.position;
+            let mut points: Vec<DVec4> = (0..400)
+                .map(|_| cam + DVec4::from_array(random_point(&mut rng, 6.0)))
+                .collect();
+            for _ in 0..40 {
+                let d = fs.camera.direction(
+                    rng.random_range(0.0..64.0),
+                    rng.random_range(0.0..48.0),
+                    64,
+                    48,
+                );
+                points.extend((0..40).map(|k| cam + d * (k as f64 * 0.25)));
+            }
+            for p in points {
+                let cell = fs.cells.find(p);
+                let whole = vm::eval_point(&fs.scene, &mut one, to32(p.to_array()), [0.0; 4], 0.0);
+                let local = (p - cell.origin).as_vec4().to_array();
+                let mut part = vm::eval_point(&cell.scene, &mut one, local, [0.0; 4], 0.0);
+                if let Some(pieces) = &cell.linear {
+                    let (d, o) = (pieces.iter())
+                        .map(|l| (l.g.dot(p - cell.origin) + l.c, l.object))
+                        .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
+                    part = vec![d as f32, o as f32];
+                }
+                let (a, b) = (whole[0] as f64, part[0] as f64);
+                let tol = 2e-5 * (1.0 + a.abs() + p.abs().max_element());
+                if !cell.size.is_finite() {
+                    // Outside the cells' cube only the unbounded objects are left: the
+                    // distance can only grow (the marcher stops steps at the cube).
+                    assert!(b >= a - tol, "{}: {b} outside, {a} whole", file.display());
+                    continue;
+                }
+                assert!(
+                    (a - b).abs() <= tol || (a.is_infinite() && a == b),
+                    "{} t={t}: distance {b} in the cell at {:?} (edge {}), {a} whole, at {p:?}",
+                    file.display(),
+                    cell.lo,
+                    cell.size
+                );
+                if whole[1] != part[1] && part[1] >= 0.0 {
+                    // A tie: the object the cell names is as near as the nearest.
+                    let o = &fs.objects[part[1] as usize].distance;
+                    let d = vm::eval_point(o, &mut one, to32(p.to_array()), [0.0; 4], 0.0)[0];
+                    assert!(
+                        ((d - whole[0]) as f64).abs() <= tol,
+                        "{} t={t}: nearest {} in the cell, {} whole, at {p:?}",
+                        file.display(),
+                        part[1],
+                        whole[1]
+                    );
+                }
+                if let (Some(wi), Some(ci)) = (&fs.interior, &cell.interior) {
+                    let a = vm::eval_point(wi, &mut one, to32(p.to_array()), [0.0; 4], 0.0)[0];
+                    let b = vm::eval_point(ci, &mut one, local, [0.0; 4], 0.0)[0];
+                    assert!(
+                        ((a - b) as f64).abs() <= tol,
+                        "{} t={t}: interior distance {b} in the cell, {a} whole, at {p:?}",
+                        file.display()
+                    );
+                }
+                checked += 1;
+                pruned += (cell.scene.code.len() < fs.scene.code.len()) as usize;
+            }
+        }
+    }
+    // The test must look at pruned tapes, not only at cells that kept everything.
+    assert!(
+        pruned * 4 > checked,
+        "only {pruned} of {checked} points in pruned cells"
+    );
 }

@@ -271,6 +271,21 @@ pub fn lower(scene: &Scene) -> SceneIr {
     }
 }
 
+/// The smallest of the distances `ds` (object index, distance) and its object's index (-1
+/// for none), as a running min-with-id.
+pub fn nearest(g: &mut Graph, ds: &[(usize, Id)]) -> (Id, Id) {
+    let (mut best, mut id) = (
+        g.intern(Node::Const(K::new(f64::INFINITY))),
+        g.intern(Node::Const(K::new(-1.0))),
+    );
+    for &(i, d) in ds {
+        let t = g.intern(Node::MinId(best, id, d, K::new(i as f64)));
+        best = g.intern(Node::Proj(t, 0));
+        id = g.intern(Node::Proj(t, 1));
+    }
+    (best, id)
+}
+
 impl Lower<'_> {
     fn k(&mut self, x: f64) -> Id {
         self.g.intern(Node::Const(K::new(x)))
@@ -291,17 +306,11 @@ impl Lower<'_> {
         objects: &[ObjectIr],
         mut distance: impl FnMut(&mut Self, Id) -> Id,
     ) -> (Id, Id) {
-        let (mut best, mut nearest) = (self.k(f64::INFINITY), self.k(-1.0));
-        for (i, o) in objects.iter().enumerate() {
-            if o.material.is_air() {
-                continue;
-            }
-            let d = distance(self, o.distance);
-            let t = (self.g).intern(Node::MinId(best, nearest, d, K::new(i as f64)));
-            best = self.g.intern(Node::Proj(t, 0));
-            nearest = self.g.intern(Node::Proj(t, 1));
-        }
-        (best, nearest)
+        let ds: Vec<(usize, Id)> = (objects.iter().enumerate())
+            .filter(|(_, o)| !o.material.is_air())
+            .map(|(i, o)| (i, distance(self, o.distance)))
+            .collect();
+        nearest(&mut self.g, &ds)
     }
 
     /// Object `i` as a spherical light, if its material is a constant `light` and its shape a

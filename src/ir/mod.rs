@@ -5,14 +5,16 @@
 //! once (the D4 decoder, lattice repetition, min-with-id) are tuple nodes read through `Proj`.
 
 pub mod eval;
+pub mod interval;
 pub mod lower;
 pub mod opt;
 mod print;
+pub mod prune;
 
 pub use crate::math::{Bin, Un};
 pub use lower::{MaterialIr, ObjectIr, SceneIr, lower};
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap;
 
 /// A node of the graph; children always have smaller ids than their parents.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -156,7 +158,7 @@ impl Node {
 #[derive(Clone, Debug, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
-    index: HashMap<Node, Id>,
+    index: FxHashMap<Node, Id>,
 }
 
 impl Graph {
@@ -197,6 +199,25 @@ impl Graph {
             Node::Const(k) => Some(k.get()),
             _ => None,
         }
+    }
+
+    /// Copy the nodes `roots` need into a new graph, each through `add` (which receives it with
+    /// its operands already renamed); returns the graph and the new id of every old one.
+    pub fn rebuild(
+        &self,
+        roots: &[Id],
+        mut add: impl FnMut(&mut Graph, Node) -> Id,
+    ) -> (Graph, Vec<Id>) {
+        let live = self.live(roots);
+        let mut g = Graph::new();
+        let mut map = vec![Id(u32::MAX); self.len()];
+        for i in 0..self.len() {
+            if live[i] {
+                let n = self.get(Id(i as u32)).map(|c| map[c.0 as usize]);
+                map[i] = add(&mut g, n);
+            }
+        }
+        (g, map)
     }
 
     /// Which nodes the given roots depend on, as a mask over ids.

@@ -13,17 +13,8 @@ pub fn optimise(ir: &SceneIr, t: Option<f64>) -> SceneIr {
 }
 
 /// Copy the nodes the roots need into a new graph through `add`.
-fn rebuild(ir: &SceneIr, mut add: impl FnMut(&mut Graph, Node) -> Id) -> SceneIr {
-    let old = &ir.graph;
-    let live = old.live(&ir.roots());
-    let mut g = Graph::new();
-    let mut map = vec![Id(u32::MAX); old.len()];
-    for i in 0..old.len() {
-        if live[i] {
-            let n = old.get(Id(i as u32)).map(|c| map[c.0 as usize]);
-            map[i] = add(&mut g, n);
-        }
-    }
+fn rebuild(ir: &SceneIr, add: impl FnMut(&mut Graph, Node) -> Id) -> SceneIr {
+    let (g, map) = ir.graph.rebuild(&ir.roots(), add);
     ir.remap(g, &mut |id| map[id.0 as usize])
 }
 
@@ -32,7 +23,7 @@ fn k(g: &mut Graph, x: f64) -> Id {
 }
 
 /// Add `n` (whose operands are already simplified) to `g` in its simplest form.
-fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
+pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
     if let (Node::Var(Var::T), Some(t)) = (n, t) {
         return k(g, t);
     }

@@ -14,7 +14,6 @@ use crate::compile::{Compiled, frame_time};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
 use crate::scene::Scene;
-use glam::DVec4;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -167,11 +166,6 @@ pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> R
     if options.general {
         features.interiors = true;
     }
-    let camera = &scene.camera;
-    let reach = DVec4::from_array(camera.from)
-        .abs()
-        .max(DVec4::from_array(camera.to).abs())
-        .max_element();
     let settings = Settings {
         width: r.width,
         height: r.height,
@@ -182,7 +176,6 @@ pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> R
         },
         seed: r.seed,
         roulette_from: options.roulette_from,
-        far: 1e3 * (1.0 + reach),
         light_sampling: options.light_sampling,
         sampler: options.sampler,
     };

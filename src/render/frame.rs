@@ -5,8 +5,10 @@ use super::camera::FrameCamera;
 use super::lights::{Lights, SphereLight};
 use super::material::{Layout, Medium, Surface};
 use crate::compile::{Compiled, LightPlacement};
+use crate::ir::SceneIr;
 use crate::scene::Scene;
 use crate::vm::Tape;
+use crate::vm::cells::{Cells, Roots};
 use glam::{DVec3, DVec4};
 
 pub struct FrameObject {
@@ -37,6 +39,8 @@ pub struct FrameScene {
     pub features: Features,
     /// The spherical emitters of this frame, for next-event estimation.
     pub lights: Lights,
+    /// The scene and interior tapes pruned to regions of space: what rays march through.
+    pub cells: Cells,
 }
 
 impl FrameScene {
@@ -55,9 +59,12 @@ impl FrameScene {
         let lights = (frame.lights.iter())
             .filter_map(|l| sphere_light(l, &objects[l.object], t))
             .collect();
+        let camera = FrameCamera::new(&scene.camera, t, &frame.look);
+        let cells = cells(&program.ir, &compiled.bounds, camera.position);
         FrameScene {
             t,
-            camera: FrameCamera::new(&scene.camera, t, &frame.look),
+            camera,
+            cells,
             scene: program.scene,
             interior: program.interior,
             lights: Lights::new(lights, objects.len()),
@@ -67,6 +74,34 @@ impl FrameScene {
             features,
         }
     }
+}
+
+/// The cells of a frame: a cube around the camera and every bounded object, twice their
+/// extent, so rays near them and on the ground between them use pruned tapes.
+fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4) -> Cells {
+    let (mut lo, mut hi) = (camera, camera);
+    let mut unbounded = vec![];
+    for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
+        if o.material.is_air() {
+            continue;
+        }
+        match b {
+            Some((c, r)) if r.is_finite() && c.iter().all(|x| x.is_finite()) => {
+                let c = DVec4::from_array(*c);
+                lo = lo.min(c - DVec4::splat(*r));
+                hi = hi.max(c + DVec4::splat(*r));
+            }
+            _ => unbounded.push((i, o.distance)),
+        }
+    }
+    let roots = Roots {
+        scene: (ir.distance, ir.nearest),
+        interior: ir.interior,
+        objects: ir.objects.iter().map(|o| o.distance).collect(),
+    };
+    let size = 2.0 * (hi - lo).max_element().max(1.0);
+    let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
+    Cells::new(&ir.graph, roots, corner, size, (lo, hi), &unbounded)
 }
 
 impl Features {

@@ -33,6 +33,7 @@ use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::film::PixelSums;
 use crate::ir::Var;
+use crate::vm::cells::Cell;
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
 
@@ -47,8 +48,6 @@ pub struct Settings {
     pub seed: u64,
     /// Russian roulette from this many bounces on (`u32::MAX`: never).
     pub roulette_from: u32,
-    /// Rays that get this far without a hit have left the scene.
-    pub far: f64,
     /// Next-event estimation towards spherical lights, combined with BSDF sampling by MIS.
     pub light_sampling: bool,
     /// Where the random numbers come from.
@@ -166,11 +165,13 @@ impl Path {
 }
 
 /// One surface hit waiting for its normal and material.
-struct Pending {
+struct Pending<'c> {
     path: u32,
     p: DVec4,
     t: f64,
     object: u32,
+    /// The cell of the hit, whose pruned tape of the object gives its normal.
+    cell: &'c Cell,
 }
 
 /// A light sample waiting for its shadow ray: what it adds to path `path` if the ray's first
@@ -198,7 +199,6 @@ pub struct Scratch {
     paths: Vec<Path>,
     rays: Vec<Ray>,
     hits: Vec<Hit>,
-    pending: Vec<Pending>,
     outputs: Vec<f32>,
     normals: Vec<DVec4>,
     grad: Option<Regs<Dual, LANES>>,
@@ -302,7 +302,6 @@ fn trace(
         paths,
         rays,
         hits,
-        pending,
         outputs,
         normals,
         grad,
@@ -315,11 +314,13 @@ fn trace(
         lights: (s.light_sampling && !fs.lights.is_empty()).then_some(&fs.lights),
         interior: interior.is_some(),
     };
+    // Hits hold references into this frame's cells, so they live here, not in `scratch`.
+    let mut pending: Vec<Pending> = Vec::new();
     while !paths.is_empty() {
         rays.clear();
         for path in paths.iter_mut() {
             let m = path.stack.medium(fs.medium);
-            let mut tmax = s.far;
+            let mut tmax = f64::INFINITY;
             path.flight = false;
             path.sampler.start_segment(path.bounces);
             if !m.is_vacuum() {
@@ -337,7 +338,7 @@ fn trace(
             });
         }
         let before = marcher.evaluations;
-        marcher.march(&fs.scene, interior, fs.t as f32, rays, s.limits, hits);
+        marcher.march(&fs.cells, rays, s.limits, hits);
         stats.evaluations += marcher.evaluations - before;
 
         // Resolve everything but surface hits; collect those.
@@ -359,21 +360,26 @@ fn trace(
                     path.radiance += path.beta * fs.sky;
                     alive[i] = false;
                 }
-                Hit::Surface { t, object } => pending.push(Pending {
-                    path: i as u32,
-                    p: path.o + path.d * t,
-                    t,
-                    object: object as u32,
-                }),
+                Hit::Surface { t, object } => {
+                    let p = path.o + path.d * t;
+                    pending.push(Pending {
+                        path: i as u32,
+                        p,
+                        t,
+                        object: object as u32,
+                        cell: fs.cells.find(p),
+                    })
+                }
             }
         }
 
         // Normals and materials, a packet of one object's hits at a time.
-        pending.sort_by_key(|h| h.object);
+        let key = |h: &Pending| (h.object, h.cell as *const Cell as usize);
+        pending.sort_by_key(key);
         for group in pending.chunk_by(|a, b| a.object == b.object) {
             let object = &fs.objects[group[0].object as usize];
             for chunk in group.chunks(LANES) {
-                normals_of(&object.distance, grad, chunk, fs.t as f32, normals);
+                normals_of(chunk, grad, normals);
                 let n_out = object.material.outputs.len();
                 regs.fit(&object.material);
                 *regs.input(Var::T.index()) = [fs.t as f32; LANES];
@@ -401,15 +407,7 @@ fn trace(
         // Shadow rays of the light samples taken above, all at once.
         if !shadows.pending.is_empty() {
             let before = marcher.evaluations;
-            let t = fs.t as f32;
-            marcher.march(
-                &fs.scene,
-                interior,
-                t,
-                &shadows.rays,
-                s.limits,
-                &mut shadows.hits,
-            );
+            marcher.march(&fs.cells, &shadows.rays, s.limits, &mut shadows.hits);
             stats.evaluations += marcher.evaluations - before;
             stats.shadow_rays += shadows.rays.len() as u64;
             for (sh, hit) in shadows.pending.iter().zip(&shadows.hits) {
@@ -446,17 +444,20 @@ fn trace(
     }
 }
 
-/// Unit outward normals of `tape`'s distance at the hits, by forward-mode gradients; where
-/// the gradient vanishes or is not finite, the normal faces back along the ray.
-fn normals_of(
-    tape: &crate::vm::Tape,
-    grad: &mut Regs<Dual, LANES>,
-    hits: &[Pending],
-    t: f32,
-    out: &mut Vec<DVec4>,
-) {
-    let points: Vec<[f32; 4]> = hits.iter().map(|h| h.p.as_vec4().to_array()).collect();
-    let g = crate::vm::gradient(tape, grad, &points, t);
+/// Unit outward normals at the hits, by forward-mode gradients of each hit's object's distance
+/// as pruned to the hit's cell (in its local coordinates, so far from the origin they keep
+/// their precision; one packet per cell); where the gradient vanishes or is not finite, the
+/// normal faces back along the ray.
+fn normals_of(hits: &[Pending], grad: &mut Regs<Dual, LANES>, out: &mut Vec<DVec4>) {
+    let mut g = Vec::with_capacity(hits.len());
+    for run in hits.chunk_by(|a, b| std::ptr::eq(a.cell, b.cell)) {
+        let cell = run[0].cell;
+        let tape = &cell.objects[run[0].object as usize];
+        let points: Vec<[f32; 4]> = (run.iter())
+            .map(|h| (h.p - cell.origin).as_vec4().to_array())
+            .collect();
+        g.extend(crate::vm::gradient(tape, grad, &points, 0.0));
+    }
     out.clear();
     out.extend(g.iter().map(|d| {
         let n = DVec4::from_array(d.g.map(|x| x as f64));

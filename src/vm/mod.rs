@@ -4,9 +4,9 @@
 //! the interior (for rays inside objects), each object's distance, and each object's material
 //! map (selector, then every parameter). `compile` builds it.
 
+pub mod cells;
 pub mod exec;
 pub mod grad;
-pub mod interval;
 mod print;
 pub mod tape;
 

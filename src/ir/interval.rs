@@ -1,0 +1,292 @@
+//! Interval evaluation of the IR: conservative bounds (in `f64`) of every node over a 4D box.
+//! Pruning (`prune.rs`) decides `min`/`max` branches with them, and the marcher proves with
+//! them that a ray has left every object.
+
+use super::{Bin, Graph, Id, Node, Un, Var};
+use crate::math::kernel as k;
+use rustc_hash::FxHashMap;
+
+/// A closed interval `lo..=hi`; a NaN bound means nothing is known.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct I {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl I {
+    pub const ALL: I = I {
+        lo: f64::NEG_INFINITY,
+        hi: f64::INFINITY,
+    };
+
+    pub fn new(lo: f64, hi: f64) -> I {
+        I { lo, hi }
+    }
+    pub fn point(x: f64) -> I {
+        I { lo: x, hi: x }
+    }
+    pub fn contains(self, x: f64) -> bool {
+        (self.lo <= x && x <= self.hi) || x.is_nan() || self.lo.is_nan() || self.hi.is_nan()
+    }
+    /// Whether every value is nonzero (a NaN bound decides nothing).
+    pub fn excludes_zero(self) -> bool {
+        self.lo > 0.0 || self.hi < 0.0
+    }
+    fn is_point(self) -> bool {
+        self.lo == self.hi
+    }
+    fn union(self, o: I) -> I {
+        I::new(self.lo.min(o.lo), self.hi.max(o.hi))
+    }
+    /// The image under a nondecreasing function.
+    fn up(self, f: impl Fn(f64) -> f64) -> I {
+        I::new(f(self.lo), f(self.hi))
+    }
+    fn add(self, o: I) -> I {
+        I::new(self.lo + o.lo, self.hi + o.hi)
+    }
+    fn neg(self) -> I {
+        I::new(-self.hi, -self.lo)
+    }
+    fn mul(self, o: I) -> I {
+        let p = [
+            self.lo * o.lo,
+            self.lo * o.hi,
+            self.hi * o.lo,
+            self.hi * o.hi,
+        ];
+        if p.iter().any(|x| x.is_nan()) {
+            return I::ALL;
+        }
+        I::new(
+            p.iter().cloned().fold(f64::INFINITY, f64::min),
+            p.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
+        )
+    }
+    fn abs(self) -> I {
+        if self.lo >= 0.0 {
+            self
+        } else if self.hi <= 0.0 {
+            self.neg()
+        } else {
+            I::new(0.0, (-self.lo).max(self.hi))
+        }
+    }
+    fn square(self) -> I {
+        let a = self.abs();
+        I::new(a.lo * a.lo, a.hi * a.hi)
+    }
+    fn min(self, o: I) -> I {
+        I::new(self.lo.min(o.lo), self.hi.min(o.hi))
+    }
+    fn max(self, o: I) -> I {
+        I::new(self.lo.max(o.lo), self.hi.max(o.hi))
+    }
+    /// A truth value: certainly true, certainly false, or either.
+    fn truth(always: bool, never: bool) -> I {
+        match (always, never) {
+            (true, _) => I::point(1.0),
+            (_, true) => I::point(0.0),
+            _ => I::new(0.0, 1.0),
+        }
+    }
+}
+
+fn un(op: Un, a: I) -> I {
+    if a.is_point() {
+        return I::point(k::un(op, a.lo));
+    }
+    match op {
+        Un::Neg => a.neg(),
+        Un::Abs => a.abs(),
+        Un::Sqrt => I::new(a.lo.max(0.0).sqrt(), a.hi.max(0.0).sqrt()),
+        Un::Floor => a.up(f64::floor),
+        Un::Ceil => a.up(f64::ceil),
+        Un::Round => a.up(k::round),
+        Un::Fract if a.lo.floor() == a.hi.floor() => a.up(|x| x - x.floor()),
+        Un::Fract => I::new(0.0, 1.0),
+        Un::Sign => a.up(|x| k::un(Un::Sign, x)),
+        Un::Sin | Un::Cos => I::new(-1.0, 1.0),
+        Un::Tan => I::ALL,
+        Un::Asin | Un::Atan | Un::Exp | Un::Ln => a.up(|x| k::un(op, x)),
+        Un::Acos => I::new(a.hi.acos(), a.lo.acos()),
+        Un::Not => I::truth(false, a.excludes_zero()),
+    }
+}
+
+fn bin(op: Bin, a: I, b: I) -> I {
+    if a.is_point() && b.is_point() {
+        return I::point(k::bin(op, a.lo, b.lo));
+    }
+    match op {
+        Bin::Add => a.add(b),
+        Bin::Sub => a.add(b.neg()),
+        Bin::Mul => a.mul(b),
+        Bin::Div if b.excludes_zero() => a.mul(I::new(1.0 / b.hi, 1.0 / b.lo)),
+        Bin::Div => I::ALL,
+        Bin::Mod => {
+            let m = b.abs().hi;
+            I::new(-m, m)
+        }
+        Bin::Min => a.min(b),
+        Bin::Max => a.max(b),
+        Bin::Pow | Bin::Atan2 => I::ALL,
+        Bin::Lt => I::truth(a.hi < b.lo, a.lo >= b.hi),
+        Bin::Le => I::truth(a.hi <= b.lo, a.lo > b.hi),
+        Bin::Eq => I::truth(false, a.hi < b.lo || a.lo > b.hi),
+        Bin::Ne => I::truth(a.hi < b.lo || a.lo > b.hi, false),
+        Bin::And | Bin::Or => {
+            let no = |x: I| x == I::point(0.0);
+            if op == Bin::And {
+                I::truth(a.excludes_zero() && b.excludes_zero(), no(a) || no(b))
+            } else {
+                I::truth(a.excludes_zero() || b.excludes_zero(), no(a) && no(b))
+            }
+        }
+    }
+}
+
+/// Bounds of every node of a graph, filled in id order (children before parents).
+#[derive(Clone, Debug, Default)]
+pub struct Intervals {
+    vals: Vec<I>,
+    /// The outputs of tuple nodes, read through `Proj`.
+    tuples: FxHashMap<u32, Vec<I>>,
+}
+
+impl Intervals {
+    /// Bounds of the nodes `live` marks (all when `None`) for inputs in `vars`.
+    pub fn of(g: &Graph, vars: &impl Fn(Var) -> I, live: Option<&[bool]>) -> Intervals {
+        let mut iv = Intervals::default();
+        iv.extend(g, vars, live);
+        iv
+    }
+
+    /// Bound the nodes added to `g` since the last call.
+    pub fn extend(&mut self, g: &Graph, vars: &impl Fn(Var) -> I, live: Option<&[bool]>) {
+        for i in self.vals.len()..g.len() {
+            let v = if live.is_none_or(|l| l[i]) {
+                self.node(i as u32, g.get(Id(i as u32)), vars)
+            } else {
+                I::ALL
+            };
+            self.vals.push(v);
+        }
+    }
+
+    pub fn get(&self, id: Id) -> I {
+        self.vals[id.0 as usize]
+    }
+
+    fn node(&mut self, id: u32, n: Node, vars: &impl Fn(Var) -> I) -> I {
+        let g = |x: Id| self.vals[x.0 as usize];
+        let v4 = |v: [Id; 4]| v.map(g);
+        let row = |r: &[super::K]| -> Vec<f64> { r.iter().map(|x| x.get()).collect() };
+        let tuple: Vec<I> = match n {
+            Node::Var(v) => return vars(v),
+            Node::Const(c) => return I::point(c.get()),
+            Node::Un(op, a) => return un(op, g(a)),
+            Node::Bin(op, a, b) => return bin(op, g(a), g(b)),
+            Node::Proj(t, i) => {
+                return self.tuples.get(&t.0).map_or(I::ALL, |out| out[i as usize]);
+            }
+            Node::Select(c, a, b) => {
+                let c = g(c);
+                return if c == I::point(0.0) {
+                    g(b)
+                } else if c.excludes_zero() {
+                    g(a)
+                } else {
+                    g(a).union(g(b))
+                };
+            }
+            Node::Length(v, r) => {
+                let r = row(&r);
+                let s = (0..4).fold(I::point(0.0), |acc, i| {
+                    acc.add(g(v[i]).add(I::point(r[i])).square())
+                });
+                return un(Un::Sqrt, s).add(I::point(-r[4]));
+            }
+            Node::Affine(v, r) => {
+                let r = row(&r);
+                return (0..4).fold(I::point(r[4]), |acc, i| {
+                    acc.add(g(v[i]).mul(I::point(r[i])))
+                });
+            }
+            Node::BoxDist(v, r) => {
+                let r = row(&r);
+                let q: Vec<I> = (0..4)
+                    .map(|i| g(v[i]).add(I::point(r[i])).abs().add(I::point(-r[4 + i])))
+                    .collect();
+                let o = q.iter().fold(I::point(0.0), |acc, x| {
+                    acc.add(x.max(I::point(0.0)).square())
+                });
+                let m = q[1..].iter().fold(q[0], |acc, x| acc.max(*x));
+                return un(Un::Sqrt, o)
+                    .add(m.min(I::point(0.0)))
+                    .add(I::point(-r[8]));
+            }
+            // Smooth min is nondecreasing in a and b and nonincreasing in k.
+            Node::SMin(a, b, kk) => {
+                let (a, b, kk) = (g(a), g(b), g(kk));
+                return I::new(k::smin(a.lo, b.lo, kk.hi), k::smin(a.hi, b.hi, kk.lo));
+            }
+            Node::SMax(a, b, kk) => {
+                let (a, b, kk) = (g(a), g(b), g(kk));
+                return I::new(-k::smin(-a.lo, -b.lo, kk.lo), -k::smin(-a.hi, -b.hi, kk.hi));
+            }
+            Node::D4(v) => {
+                let v = v4(v);
+                if v.iter().all(|x| x.is_point()) {
+                    k::d4(v.map(|x| x.lo))
+                        .iter()
+                        .map(|x| I::point(*x))
+                        .collect()
+                } else {
+                    // Offsets stay inside the Voronoi cell (|x_i| <= 1); points are near.
+                    let mut out = vec![I::new(-1.0, 1.0); 4];
+                    out.extend(
+                        v.iter()
+                            .map(|x| I::new(x.lo.floor() - 1.0, x.hi.ceil() + 1.0)),
+                    );
+                    out
+                }
+            }
+            Node::Rep(a, l) => {
+                let (a, l) = (g(a), l.get());
+                let (clo, chi) = (k::rep(a.lo, l)[1], k::rep(a.hi, l)[1]);
+                if clo == chi {
+                    vec![a.add(I::point(-clo)), I::point(clo)]
+                } else {
+                    vec![
+                        I::new((-0.5f64).min(a.lo - clo), 0.5f64.max(a.hi - chi)),
+                        I::new(clo, chi),
+                    ]
+                }
+            }
+            Node::MinId(a, b, c, id) => {
+                let (best, best_id, d) = (g(a), g(b), g(c));
+                let id = match min_id_choice(best, d) {
+                    Some(true) => I::point(id.get()),
+                    Some(false) => best_id,
+                    None => best_id.union(I::point(id.get())),
+                };
+                vec![best.min(d), id]
+            }
+        };
+        self.tuples.insert(id, tuple);
+        I::ALL
+    }
+}
+
+/// Which operand `min_id(best, _, d, _)` returns over the bounds: `Some(true)` for `d`
+/// (`d < best` everywhere), `Some(false)` for `best`, `None` when it varies.
+pub fn min_id_choice(best: I, d: I) -> Option<bool> {
+    if d.hi < best.lo {
+        Some(true)
+    } else if d.lo >= best.hi {
+        Some(false)
+    } else {
+        None
+    }
+}

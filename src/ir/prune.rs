@@ -1,0 +1,290 @@
+//! Spatial pruning: the graph specialised to a 4D box. Interval bounds over the box decide the
+//! branches of `min`, `max`, smooth CSG where the blend is provably zero, `select`, `abs` and
+//! the running min-with-id of the scene, so inside the box the pruned graph computes exactly
+//! what the whole graph does, with only the branches that can matter there. The point
+//! variables are moved to the box's own origin (`old = new + shift`) and the offset is folded
+//! into the operations in `f64`, so an `f32` tape of the result keeps its precision however
+//! far the box is from the world's origin.
+
+use super::interval::{I, Intervals, min_id_choice};
+use super::opt::simplify;
+use super::{Bin, Graph, Id, K, Node, Un, Var};
+use rustc_hash::FxHashMap;
+
+/// A graph specialised to a box, with the bounds of its roots there.
+#[derive(Clone, Debug)]
+pub struct Pruned {
+    pub graph: Graph,
+    pub roots: Vec<Id>,
+    pub bounds: Vec<I>,
+}
+
+/// `roots` of `g` for points `new + shift` with `new` in `region` (local coordinates).
+pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4]) -> Pruned {
+    let live = g.live(roots);
+    let mut out = Graph::new();
+    // The point variables first: they get the smallest ids, so `x + c` keeps the constant
+    // second, the form the optimiser folds into offsets.
+    for v in Var::POINT {
+        out.intern(Node::Var(v));
+    }
+    let vars = |v: Var| match v {
+        Var::X | Var::Y | Var::Z | Var::W => region[v.index()],
+        Var::NX | Var::NY | Var::NZ | Var::NW => I::new(-1.0, 1.0),
+        Var::T => I::ALL,
+    };
+    let mut iv = Intervals::default();
+    iv.extend(&out, &vars, None);
+    let mut map = vec![Id(u32::MAX); g.len()];
+    // Min-with-id tuples that reduce to one operand: what their two projections read.
+    let mut decided: FxHashMap<u32, [Id; 2]> = FxHashMap::default();
+    for i in (0..g.len()).filter(|i| live[*i]) {
+        let n = g.get(Id(i as u32));
+        let new = match n {
+            Node::Var(v) if Var::POINT.contains(&v) => {
+                let x = out.intern(n);
+                let s = shift[v.index()];
+                if s == 0.0 {
+                    x
+                } else {
+                    let c = out.intern(Node::Const(K::new(s)));
+                    simplify(&mut out, Node::Bin(Bin::Add, x, c), None)
+                }
+            }
+            Node::Proj(t, j) if decided.contains_key(&t.0) => decided[&t.0][j as usize],
+            _ => {
+                let m = n.map(|c| map[c.0 as usize]);
+                // Against an infinite `best` (no object yet) the pair only differs where `d`
+                // is infinite too, which no ray can hit: take `d`.
+                let first = |best: Id| iv.get(best) == I::point(f64::INFINITY);
+                if let Node::MinId(best, best_id, d, id) = m
+                    && let Some(take_d) =
+                        min_id_choice(iv.get(best), iv.get(d)).or(first(best).then_some(true))
+                {
+                    let pair = if take_d {
+                        [d, out.intern(Node::Const(id))]
+                    } else {
+                        [best, best_id]
+                    };
+                    decided.insert(i as u32, pair);
+                    iv.extend(&out, &vars, None);
+                    continue;
+                }
+                match choose(&iv, m) {
+                    Ok(id) => id,
+                    Err(Node::BoxDist(v, r)) => box_faces(&mut out, &iv, v, r),
+                    Err(m) => simplify(&mut out, m, None),
+                }
+            }
+        };
+        iv.extend(&out, &vars, None);
+        map[i] = new;
+    }
+    let kept: Vec<Id> = roots.iter().map(|r| map[r.0 as usize]).collect();
+    let bounds = kept.iter().map(|r| iv.get(*r)).collect();
+    let (graph, m) = out.rebuild(&kept, |g, n| g.intern(n));
+    Pruned {
+        graph,
+        roots: kept.iter().map(|r| m[r.0 as usize]).collect(),
+        bounds,
+    }
+}
+
+/// The operand `n` reduces to over the bounds (`Ok`), or the node to add in its place.
+fn choose(iv: &Intervals, n: Node) -> Result<Id, Node> {
+    let v = |x: Id| iv.get(x);
+    let below = |a: Id, b: Id| v(a).hi <= v(b).lo;
+    // `a - b >= k` everywhere: the polynomial blend of width `k` is zero.
+    let apart = |a: Id, b: Id, k: Id| {
+        let k = v(k).hi;
+        k >= 0.0 && v(a).lo - v(b).hi >= k
+    };
+    match n {
+        Node::Bin(Bin::Min, a, b) if below(a, b) => Ok(a),
+        Node::Bin(Bin::Min, a, b) if below(b, a) => Ok(b),
+        Node::Bin(Bin::Max, a, b) if below(b, a) => Ok(a),
+        Node::Bin(Bin::Max, a, b) if below(a, b) => Ok(b),
+        Node::SMin(a, b, k) if apart(a, b, k) => Ok(b),
+        Node::SMin(a, b, k) if apart(b, a, k) => Ok(a),
+        Node::SMax(a, b, k) if apart(a, b, k) => Ok(a),
+        Node::SMax(a, b, k) if apart(b, a, k) => Ok(b),
+        Node::Select(c, a, _) if v(c).excludes_zero() => Ok(a),
+        Node::Select(c, _, b) if v(c) == I::point(0.0) => Ok(b),
+        Node::Un(Un::Abs, a) if v(a).lo >= 0.0 => Ok(a),
+        Node::Un(Un::Abs, a) if v(a).hi <= 0.0 => Err(Node::Un(Un::Neg, a)),
+        _ => Err(n),
+    }
+}
+
+/// A hyperbox distance where the bounds decide which faces can be nearest and on which side
+/// of the centre the point is: inside the box, the largest of the candidate faces' affine
+/// distances; outside through one face, that face's. Otherwise the node as it is.
+fn box_faces(g: &mut Graph, iv: &Intervals, v: [Id; 4], r: [K; 9]) -> Id {
+    let r = r.map(K::get);
+    let u: [I; 4] = std::array::from_fn(|a| {
+        let x = iv.get(v[a]);
+        I::new(x.lo + r[a], x.hi + r[a])
+    });
+    // q_a = |u_a| - half_a, with the side of the centre decided, or nothing known.
+    let q: [Option<(f64, I)>; 4] = std::array::from_fn(|a| {
+        let h = r[4 + a];
+        if u[a].lo >= 0.0 {
+            Some((1.0, I::new(u[a].lo - h, u[a].hi - h)))
+        } else if u[a].hi <= 0.0 {
+            Some((-1.0, I::new(-u[a].hi - h, -u[a].lo - h)))
+        } else {
+            None
+        }
+    });
+    let whole = |g: &mut Graph| g.intern(Node::BoxDist(v, r.map(K::new)));
+    let hi = |a: usize| q[a].map_or(f64::INFINITY, |x| x.1.hi);
+    let lo = |a: usize| q[a].map_or(f64::NEG_INFINITY, |x| x.1.lo);
+    let inside = (0..4).all(|a| hi(a) <= 0.0);
+    let outside_one = (0..4).filter(|&a| lo(a) >= 0.0).count() == 1
+        && (0..4).all(|a| lo(a) >= 0.0 || hi(a) <= 0.0);
+    if !inside && !outside_one {
+        return whole(g);
+    }
+    let top = (0..4).map(lo).fold(f64::NEG_INFINITY, f64::max);
+    let candidates: Vec<usize> = (0..4).filter(|&a| hi(a) >= top).collect();
+    if candidates.iter().any(|&a| q[a].is_none()) {
+        return whole(g);
+    }
+    let mut faces = candidates.iter().map(|&a| {
+        let s = q[a].map_or(1.0, |x| x.0);
+        let row = [s, 0.0, 0.0, 0.0, s * r[a] - r[4 + a] - r[8]].map(K::new);
+        (v[a], row)
+    });
+    let (x, row) = faces.next().expect("some face is largest");
+    let mut d = simplify(g, Node::Affine([x; 4], row), None);
+    for (x, row) in faces {
+        let f = simplify(g, Node::Affine([x; 4], row), None);
+        d = g.intern(Node::Bin(Bin::Max, d, f));
+    }
+    d
+}
+
+/// One affine piece of a distance: `g . p + c`, on object `object`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Piece {
+    pub g: [f64; 4],
+    pub c: f64,
+    pub object: f64,
+}
+
+/// Most pieces worth intersecting one by one.
+const MAX_PIECES: usize = 8;
+
+/// The scene's distance `dist` with nearest object `near` as the smallest of a few affine
+/// pieces (halfspaces, the faces of a box seen from inside), when it is one.
+pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
+    let mut out = vec![];
+    pieces_at(g, dist, Err(near), &mut out)?;
+    // The running min starts at +infinity, which is no surface.
+    out.retain(|p| p.c.is_finite() || p.g != [0.0; 4]);
+    (out.len() <= MAX_PIECES).then_some(out)
+}
+
+/// The pieces of `dist`, whose object is known (`Ok`) or read from the node `near` (`Err`).
+fn pieces_at(g: &Graph, dist: Id, near: Result<f64, Id>, out: &mut Vec<Piece>) -> Option<()> {
+    let object = near.or_else(|n| g.constant(n).ok_or(n));
+    match object {
+        Ok(object) => {
+            let mut flat = vec![];
+            min_of_affines(g, dist, 1.0, 0, &mut flat)?;
+            out.extend(flat.into_iter().map(|(g, c)| Piece { g, c, object }));
+            Some(())
+        }
+        // The running min-with-id: `best`'s pieces keep their objects, `d`'s are object `id`.
+        Err(near) => match (g.get(dist), g.get(near)) {
+            (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => match g.get(t) {
+                Node::MinId(best, best_id, d, id) => {
+                    pieces_at(g, best, Err(best_id), out)?;
+                    pieces_at(g, d, Ok(id.get()), out)
+                }
+                _ => None,
+            },
+            _ => None,
+        },
+    }
+}
+
+/// `sign * id` as a min of affine functions, appended to `out`.
+fn min_of_affines(
+    g: &Graph,
+    id: Id,
+    sign: f64,
+    depth: u32,
+    out: &mut Vec<([f64; 4], f64)>,
+) -> Option<()> {
+    if depth > 16 || out.len() > MAX_PIECES {
+        return None;
+    }
+    if let Some((v, c)) = linear(g, id) {
+        out.push((v.map(|x| x * sign), c * sign));
+        return Some(());
+    }
+    let shifted = |out: &mut Vec<([f64; 4], f64)>, from: usize, k: f64| {
+        for p in &mut out[from..] {
+            p.1 += k;
+        }
+    };
+    match g.get(id) {
+        Node::Bin(Bin::Min, a, b) if sign > 0.0 => {
+            min_of_affines(g, a, sign, depth + 1, out)?;
+            min_of_affines(g, b, sign, depth + 1, out)
+        }
+        // -max(a, b) = min(-a, -b)
+        Node::Bin(Bin::Max, a, b) if sign < 0.0 => {
+            min_of_affines(g, a, sign, depth + 1, out)?;
+            min_of_affines(g, b, sign, depth + 1, out)
+        }
+        Node::Un(Un::Neg, a) => min_of_affines(g, a, -sign, depth + 1, out),
+        Node::Bin(op @ (Bin::Add | Bin::Sub), a, b) => {
+            let (x, k) = match (g.constant(a), g.constant(b)) {
+                (_, Some(k)) => (a, if op == Bin::Add { k } else { -k }),
+                (Some(k), _) if op == Bin::Add => (b, k),
+                _ => return None,
+            };
+            let from = out.len();
+            min_of_affines(g, x, sign, depth + 1, out)?;
+            shifted(out, from, sign * k);
+            Some(())
+        }
+        _ => None,
+    }
+}
+
+/// `id` as an affine function of the point, `g . p + c`, when it is one.
+pub fn linear(g: &Graph, id: Id) -> Option<([f64; 4], f64)> {
+    linear_at(g, id, 8)
+}
+
+fn linear_at(g: &Graph, id: Id, depth: u32) -> Option<([f64; 4], f64)> {
+    let depth = depth.checked_sub(1)?;
+    let scaled = |(v, c): ([f64; 4], f64), k: f64| (v.map(|x| x * k), c * k);
+    let sum = |(a, c): ([f64; 4], f64), (b, e): ([f64; 4], f64)| {
+        (std::array::from_fn(|i| a[i] + b[i]), c + e)
+    };
+    let sub = |x: Id| linear_at(g, x, depth);
+    Some(match g.get(id) {
+        Node::Const(k) => ([0.0; 4], k.get()),
+        Node::Var(v) if Var::POINT.contains(&v) => {
+            let mut e = [0.0; 4];
+            e[v.index()] = 1.0;
+            (e, 0.0)
+        }
+        Node::Affine(v, r) => (0..4).try_fold(([0.0; 4], r[4].get()), |acc, i| {
+            Some(sum(acc, scaled(sub(v[i])?, r[i].get())))
+        })?,
+        Node::Bin(Bin::Add, a, b) => sum(sub(a)?, sub(b)?),
+        Node::Bin(Bin::Sub, a, b) => sum(sub(a)?, scaled(sub(b)?, -1.0)),
+        Node::Bin(Bin::Mul, a, b) => match (g.constant(a), g.constant(b)) {
+            (Some(k), _) => scaled(sub(b)?, k),
+            (_, Some(k)) => scaled(sub(a)?, k),
+            _ => return None,
+        },
+        Node::Un(Un::Neg, a) => scaled(sub(a)?, -1.0),
+        _ => return None,
+    })
+}

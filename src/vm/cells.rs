@@ -1,0 +1,348 @@
+//! The scene's tapes specialised to regions of space: a 16-way tree over a 4D cube around the
+//! region rays visit, built lazily as rays reach its cells. Each cell carries the scene (and
+//! interior) tapes pruned to the cell (`ir::prune`), in coordinates local to the cell's
+//! centre, with interval lower bounds of their distances there and, where the distance is
+//! affine in the cell, its exact form. Inside a cell the pruned tapes compute what the whole
+//! scene tape does, so a ray step evaluates only the objects that can matter where it is.
+//! Points outside the cube use the whole scene in coordinates local to its centre.
+
+use super::Tape;
+use crate::ir::interval::{I, Intervals};
+use crate::ir::lower::nearest;
+use crate::ir::prune::{Pruned, pieces, prune};
+use crate::ir::{Graph, Id, Node, Un, Var};
+use glam::DVec4;
+use std::sync::OnceLock;
+
+/// Deepest level of the tree: cells down to 1/64 of the cube's edge.
+const MAX_DEPTH: u32 = 6;
+/// Levels split whether or not the split shortened the tapes: the first splits of a cube
+/// around a whole scene rarely separate its objects.
+const FREE_DEPTH: u32 = 2;
+/// A cell whose tapes have at most this many instructions is not split further.
+const SPLIT_LEN: usize = 16;
+
+/// One affine piece of a cell's scene distance: `g . (p - origin) + c`, on `object`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Linear {
+    pub g: DVec4,
+    pub c: f64,
+    pub object: usize,
+}
+
+pub struct Cell {
+    /// The corner with the smallest coordinates, and the edge length.
+    pub lo: DVec4,
+    pub size: f64,
+    /// Where the tapes' local coordinates are zero.
+    pub origin: DVec4,
+    /// Outputs: signed distance to the nearest visible object and its index (as `vm::Program`).
+    pub scene: Tape,
+    /// Outputs: unsigned distance to the nearest surface and its object, for rays inside.
+    pub interior: Option<Tape>,
+    /// Each object's distance, for the normals of hits in the cell.
+    pub objects: Vec<Tape>,
+    /// Lower bounds over the cell of the scene's distance and the interior's (NaN: unknown).
+    pub lower: [f64; 2],
+    /// The scene distance as the smallest of a few affine pieces, where it is one over the
+    /// whole cell (halfspaces, walls seen from inside a box): rays meet it exactly.
+    pub linear: Option<Vec<Linear>>,
+    /// The pruned graph, kept while the cell may still be split.
+    graph: Option<Pruned>,
+    depth: u32,
+    /// Instructions in the tapes.
+    len: usize,
+    children: OnceLock<Box<[Cell]>>,
+}
+
+/// The tree of one frame's cells, and what lies outside its cube.
+pub struct Cells {
+    root: Cell,
+    /// Points outside the cube: the scene without the bounded objects, which all lie inside
+    /// it. A step from such a point may go no further than to the cube.
+    outside: Cell,
+    escape: Escape,
+}
+
+/// What proves that a ray has left the scene: the box `lo..hi` holds every bounded object,
+/// and `roots` are the distances of the unbounded ones (halfspaces, tilings, custom fields).
+struct Escape {
+    lo: DVec4,
+    hi: DVec4,
+    graph: Graph,
+    roots: Vec<Id>,
+}
+
+/// The roots a cell specialises: the scene's distance and nearest object, the interior's
+/// (when some object can be entered), and each object's distance (for normals).
+#[derive(Clone, Debug)]
+pub struct Roots {
+    pub scene: (Id, Id),
+    pub interior: Option<(Id, Id)>,
+    pub objects: Vec<Id>,
+}
+
+impl Roots {
+    /// Scene, interior (the scene's again when there is none, so offsets stay put), objects.
+    fn flat(&self) -> Vec<Id> {
+        let (d, n) = self.scene;
+        let (e, m) = self.interior.unwrap_or(self.scene);
+        [d, n, e, m]
+            .into_iter()
+            .chain(self.objects.iter().copied())
+            .collect()
+    }
+}
+
+/// Where a cell is: its corner with the smallest coordinates, its edge, and the point its
+/// tapes' local coordinates are zero at.
+#[derive(Clone, Copy, Debug)]
+struct Place {
+    lo: DVec4,
+    size: f64,
+    origin: DVec4,
+}
+
+impl Cells {
+    /// Cells over the cube of edge `size` at corner `lo`, from the frame's optimised graph.
+    /// `scene` is the scene's distance and nearest object, `interior` the interior's, and
+    /// `objects` each object's distance. `unbounded` lists (object index, distance) for the
+    /// objects that may reach outside the box `bounded`; every other object lies inside it,
+    /// and the box inside the cube.
+    pub fn new(
+        g: &Graph,
+        tapes: Roots,
+        lo: DVec4,
+        size: f64,
+        bounded: (DVec4, DVec4),
+        unbounded: &[(usize, Id)],
+    ) -> Cells {
+        let interior = tapes.interior.is_some();
+        let whole = Pruned {
+            graph: g.clone(),
+            roots: tapes.flat(),
+            bounds: vec![],
+        };
+        let centre = lo + DVec4::splat(size / 2.0);
+        let cube = Place {
+            lo,
+            size,
+            origin: centre,
+        };
+        let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, interior);
+        let mut og = g.clone();
+        let scene = nearest(&mut og, unbounded);
+        let abs: Vec<(usize, Id)> = (unbounded.iter())
+            .map(|&(i, d)| (i, og.intern(Node::Un(Un::Abs, d))))
+            .collect();
+        let beyond = Roots {
+            scene,
+            interior: interior.then(|| nearest(&mut og, &abs)),
+            objects: tapes.objects,
+        };
+        let beyond = Pruned {
+            graph: og,
+            roots: beyond.flat(),
+            bounds: vec![],
+        };
+        let everywhere = Place {
+            lo: DVec4::splat(f64::NEG_INFINITY),
+            size: f64::INFINITY,
+            origin: centre,
+        };
+        let outside = Cell::new(&beyond, DVec4::ZERO, everywhere, 0, 0, interior);
+        let roots: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
+        let (graph, map) = beyond.graph.rebuild(&roots, |g, n| g.intern(n));
+        Cells {
+            root,
+            outside,
+            escape: Escape {
+                lo: bounded.0,
+                hi: bounded.1,
+                graph,
+                roots: roots.iter().map(|r| map[r.0 as usize]).collect(),
+            },
+        }
+    }
+
+    /// The deepest cell holding `p`.
+    pub fn find(&self, p: DVec4) -> &Cell {
+        if !self.root.contains(p) {
+            return &self.outside;
+        }
+        let mut c = &self.root;
+        while let Some(kids) = c.children() {
+            c = &kids[c.child(p)];
+        }
+        c
+    }
+
+    /// Whether `cell` is the region outside the cube.
+    pub fn is_outside(&self, cell: &Cell) -> bool {
+        std::ptr::eq(cell, &self.outside)
+    }
+
+    /// Where the ray from `o` along `d`, starting outside the cube, enters it (infinity when
+    /// it starts inside or never gets there: once out, it stays out).
+    pub fn enter(&self, o: DVec4, d: DVec4) -> f64 {
+        let hi = self.root.lo + DVec4::splat(self.root.size);
+        match entry(o, d, self.root.lo, hi) {
+            Some(t) if t > 0.0 => t,
+            _ => f64::INFINITY,
+        }
+    }
+
+    /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
+    /// of the bounded objects again, and no unbounded object's distance changes sign anywhere
+    /// in the box the rest of the ray spans.
+    pub fn escapes(&self, p: DVec4, d: DVec4) -> bool {
+        let e = &self.escape;
+        if entry(p, d, e.lo, e.hi).is_some() {
+            return false;
+        }
+        if e.roots.is_empty() {
+            return true;
+        }
+        let span = |a: usize| match d[a] {
+            x if x > 0.0 => I::new(p[a], f64::INFINITY),
+            x if x < 0.0 => I::new(f64::NEG_INFINITY, p[a]),
+            _ => I::point(p[a]),
+        };
+        let vars = |v: Var| match v {
+            Var::X | Var::Y | Var::Z | Var::W => span(v.index()),
+            _ => I::ALL,
+        };
+        let iv = Intervals::of(&e.graph, &vars, None);
+        e.roots.iter().all(|r| iv.get(*r).excludes_zero())
+    }
+}
+
+/// Where the ray from `p` along `d` first meets the box `lo..hi`, if it does (slab test,
+/// `t >= 0`; 0 when `p` is inside).
+fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for a in 0..4 {
+        if d[a] == 0.0 {
+            if p[a] < lo[a] || p[a] > hi[a] {
+                return None;
+            }
+            continue;
+        }
+        let (u, v) = ((lo[a] - p[a]) / d[a], (hi[a] - p[a]) / d[a]);
+        t0 = t0.max(u.min(v));
+        t1 = t1.min(u.max(v));
+    }
+    (t0 <= t1).then_some(t0)
+}
+
+impl Cell {
+    /// The cell at corner `lo` with edge `size`, pruned from `parent` (whose local origin is
+    /// `parent_origin`), local to `origin`.
+    fn new(
+        parent: &Pruned,
+        parent_origin: DVec4,
+        place: Place,
+        depth: u32,
+        parent_len: usize,
+        interior: bool,
+    ) -> Cell {
+        let Place { lo, size, origin } = place;
+        let region = std::array::from_fn(|a| {
+            if size.is_finite() {
+                I::new(lo[a] - origin[a], lo[a] + size - origin[a])
+            } else {
+                I::ALL
+            }
+        });
+        let shift = (origin - parent_origin).to_array();
+        let pr = prune(&parent.graph, &parent.roots, region, shift);
+        let scene = Tape::compile("scene", &pr.graph, &pr.roots[..2]);
+        let interior = interior.then(|| Tape::compile("interior", &pr.graph, &pr.roots[2..4]));
+        let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
+        let objects = (pr.roots[4..].iter())
+            .map(|r| Tape::compile("object", &pr.graph, &[*r]))
+            .collect();
+        let linear = pieces(&pr.graph, pr.roots[0], pr.roots[1]).map(|ps| {
+            (ps.iter())
+                .map(|p| Linear {
+                    g: DVec4::from_array(p.g),
+                    c: p.c,
+                    object: p.object.max(0.0) as usize,
+                })
+                .collect()
+        });
+        let len = scene.code.len() + interior.as_ref().map_or(0, |t| t.code.len());
+        // A cell with no surface in it is crossed in one jump and never split. Others split
+        // while that still shortens the tapes (where two surfaces meet, no subdivision
+        // separates them), and at the first levels in any case: the first splits of a cube
+        // around a whole scene rarely separate its objects, but they do carve out empty space.
+        let empty = lower[0].min(lower[1]) > 0.0;
+        let split = depth < MAX_DEPTH
+            && len > SPLIT_LEN
+            && (len < parent_len || depth < FREE_DEPTH)
+            && !empty
+            && linear.is_none();
+        Cell {
+            lo,
+            size,
+            origin,
+            scene,
+            interior,
+            objects,
+            lower,
+            linear,
+            graph: split.then_some(pr),
+            depth,
+            len,
+            children: OnceLock::new(),
+        }
+    }
+
+    pub fn contains(&self, p: DVec4) -> bool {
+        (0..4).all(|a| self.lo[a] <= p[a] && p[a] < self.lo[a] + self.size)
+    }
+
+    /// How far the ray from `p` (inside the cell) along `d` travels before it leaves.
+    pub fn exit(&self, p: DVec4, d: DVec4) -> f64 {
+        (0..4)
+            .map(|a| match d[a] {
+                x if x > 0.0 => (self.lo[a] + self.size - p[a]) / x,
+                x if x < 0.0 => (self.lo[a] - p[a]) / x,
+                _ => f64::INFINITY,
+            })
+            .fold(f64::INFINITY, f64::min)
+            .max(0.0)
+    }
+
+    fn child(&self, p: DVec4) -> usize {
+        let mid = self.lo + DVec4::splat(self.size / 2.0);
+        (0..4).map(|a| ((p[a] >= mid[a]) as usize) << a).sum()
+    }
+
+    fn children(&self) -> Option<&[Cell]> {
+        let graph = self.graph.as_ref()?;
+        Some(self.children.get_or_init(|| {
+            let half = self.size / 2.0;
+            (0..16)
+                .map(|k| {
+                    let lo = self.lo
+                        + DVec4::from_array(std::array::from_fn(|a| ((k >> a) & 1) as f64 * half));
+                    let place = Place {
+                        lo,
+                        size: half,
+                        origin: lo + DVec4::splat(half / 2.0),
+                    };
+                    let interior = self.interior.is_some();
+                    Cell::new(
+                        graph,
+                        self.origin,
+                        place,
+                        self.depth + 1,
+                        self.len,
+                        interior,
+                    )
+                })
+                .collect()
+        }))
+    }
+}
