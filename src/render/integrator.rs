@@ -123,6 +123,13 @@ impl Stack {
         }
     }
 
+    /// Whether the path is inside `object`; `None` when the stack is full without it, as it
+    /// then cannot tell (the path may have entered it past the nesting limit).
+    fn contains(&self, object: u32) -> Option<bool> {
+        let found = self.entries[..self.len].iter().any(|e| e.0 == object);
+        (found || self.len < MAX_NESTING).then_some(found)
+    }
+
     /// Leave `object`, wherever it is on the stack.
     fn remove(&mut self, object: u32) {
         if let Some(i) = self.entries[..self.len].iter().rposition(|e| e.0 == object) {
@@ -615,6 +622,22 @@ fn shade(
     let eps = s.limits.epsilon;
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
+    if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {
+        // The stack, not the normal, says which side of an enterable object the path is on. A
+        // segment that starts within epsilon of a surface (a scattering point, or an offset
+        // near an edge, where the gradient is another face's) hits it at once; if the ray is
+        // moving away from it, that is no crossing, and taking it for one would enter the
+        // object twice or leave it while inside. Step off the surface on the path's own side.
+        let inside = path.stack.contains(h.object).unwrap_or(!entering);
+        if inside == entering {
+            path.o = leave(h.p, if inside { -n } else { n }, eps);
+            // The shadow ray of the vertex this segment left met the same non-crossing and
+            // stopped there, so light found through it is BSDF sampling's alone.
+            path.mis_pdf = 0.0;
+            path.crossings += 1;
+            return path.crossings <= MAX_CROSSINGS;
+        }
+    }
     if let Surface::Boundary { inside } = surface {
         if entering {
             path.stack.push(h.object, inside);
