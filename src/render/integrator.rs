@@ -122,6 +122,13 @@ impl Stack {
         }
     }
 
+    /// Whether the path is inside `object`; `None` when the stack is full without it, as it
+    /// then cannot tell (the path may have entered it past the nesting limit).
+    fn contains(&self, object: u32) -> Option<bool> {
+        let found = self.entries[..self.len].iter().any(|e| e.0 == object);
+        (found || self.len < MAX_NESTING).then_some(found)
+    }
+
     /// Leave `object`, wherever it is on the stack.
     fn remove(&mut self, object: u32) {
         if let Some(i) = self.entries[..self.len].iter().rposition(|e| e.0 == object) {
@@ -476,13 +483,16 @@ fn leave(p: DVec4, side: DVec4, eps: f64) -> DVec4 {
     p + side * (4.0 * epsilon_at(p, eps))
 }
 
-/// Russian roulette and the bounce count after a scattering event; false ends the path.
-/// As in pbrt, a path survives with probability equal to its throughput (without radiance
-/// scaling) when that is below 1, so weights never grow past 1 and add no heavy tail.
-fn survive(path: &mut Path, s: &Settings) -> bool {
+/// Russian roulette and the bounce count after a scattering event (`delta`: by a delta lobe);
+/// false ends the path. As in pbrt, a path survives with probability equal to its throughput
+/// (without radiance scaling) when that is below 1, so weights never grow past 1 and add no
+/// heavy tail. Only after a non-delta event, though: a delta chain (mirrors, glass) is
+/// deterministic, so every path through it carries the same weight, and roulette there would
+/// turn that smooth estimate into survivors and zeros; the bounce limit still ends it.
+fn survive(path: &mut Path, s: &Settings, delta: bool) -> bool {
     path.bounces += 1;
     let q = (path.beta * path.eta_scale).max_element();
-    if path.bounces >= s.roulette_from && q < 1.0 {
+    if !delta && path.bounces >= s.roulette_from && q < 1.0 {
         if q <= 0.0 || path.sampler.get() >= q {
             return false;
         }
@@ -597,7 +607,7 @@ fn scatter_in_medium(
     path.d = sample.wo;
     path.mis_pdf = if sampled { sample.pdf } else { 0.0 };
     path.primary = false;
-    survive(path, s)
+    survive(path, s, false)
 }
 
 /// Shade one surface hit; false ends the path.
@@ -616,6 +626,22 @@ fn shade(
     let eps = s.limits.epsilon;
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
+    if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {
+        // The stack, not the normal, says which side of an enterable object the path is on. A
+        // segment that starts within epsilon of a surface (a scattering point, or an offset
+        // near an edge, where the gradient is another face's) hits it at once; if the ray is
+        // moving away from it, that is no crossing, and taking it for one would enter the
+        // object twice or leave it while inside. Step off the surface on the path's own side.
+        let inside = path.stack.contains(h.object).unwrap_or(!entering);
+        if inside == entering {
+            path.o = leave(h.p, if inside { -n } else { n }, eps);
+            // The shadow ray of the vertex this segment left met the same non-crossing and
+            // stopped there, so light found through it is BSDF sampling's alone.
+            path.mis_pdf = 0.0;
+            path.crossings += 1;
+            return path.crossings <= MAX_CROSSINGS;
+        }
+    }
     if let Surface::Boundary { inside } = surface {
         if entering {
             path.stack.push(h.object, inside);
@@ -645,7 +671,7 @@ fn shade(
     }
     let u = path.u3();
     let wi_world = -path.d;
-    match surface {
+    let delta = match surface {
         Surface::Light { .. } | Surface::Boundary { .. } => return false,
         Surface::Glass { ior, tint, inside } => {
             let frame = Frame::new(n);
@@ -667,34 +693,28 @@ fn shade(
             path.d = frame.to_world(b.wo).normalize();
             path.o = leave(h.p, side, eps);
             path.mis_pdf = 0.0;
+            Some(true)
         }
         Surface::Diffuse { albedo, .. } => {
             let light = Some((fs, nee, h.path, &mut *shadows));
-            if !reflect(path, h.p, n, &Lambert { albedo }, u, eps, light) {
-                return false;
-            }
+            reflect(path, h.p, n, &Lambert { albedo }, u, eps, light)
         }
-        Surface::Mirror { tint } => {
-            if !reflect(path, h.p, n, &Mirror { tint }, u, eps, None) {
-                return false;
-            }
-        }
+        Surface::Mirror { tint } => reflect(path, h.p, n, &Mirror { tint }, u, eps, None),
         Surface::Shiny { roughness, color } => {
             let ggx = Ggx::from_roughness(roughness, color);
             let light = (!ggx.is_mirror()).then_some((fs, nee, h.path, &mut *shadows));
-            if !reflect(path, h.p, n, &ggx, u, eps, light) {
-                return false;
-            }
+            reflect(path, h.p, n, &ggx, u, eps, light)
         }
-    }
-    survive(path, s)
+    };
+    delta.is_some_and(|delta| survive(path, s, delta))
 }
 
 /// Light sampling at a surface vertex: the frame, the estimator and the path's index.
 type LightSampling<'a, 'b> = Option<(&'a FrameScene, &'a Nee<'b>, u32, &'a mut Shadows)>;
 
 /// Scatter off a one-sided reflector, its frame turned towards the side the path came from;
-/// with `light`, take a light sample there first (the lobe must not be a delta).
+/// with `light`, take a light sample there first (the lobe must not be a delta). Returns
+/// whether the sampled lobe is a delta, or `None` for a zero-weight sample (the path ends).
 fn reflect(
     path: &mut Path,
     p: DVec4,
@@ -703,7 +723,7 @@ fn reflect(
     u: DVec3,
     eps: f64,
     light: LightSampling,
-) -> bool {
+) -> Option<bool> {
     let n = if path.d.dot(n) < 0.0 { n } else { -n };
     let frame = Frame::new(n);
     let wi = frame.to_local(-path.d);
@@ -717,12 +737,10 @@ fn reflect(
         };
         sampled = nee.sample(path, index, p, o, m, lobe, shadows);
     }
-    let Some(b) = bsdf.sample(wi, u) else {
-        return false;
-    };
+    let b = bsdf.sample(wi, u)?;
     path.beta *= b.weight;
     path.d = frame.to_world(b.wo).normalize();
     path.o = o;
     path.mis_pdf = if sampled && !b.delta { b.pdf } else { 0.0 };
-    true
+    Some(b.delta)
 }
