@@ -381,8 +381,9 @@ fn trace(
         }
 
         // Normals and materials, a packet of one object's hits at a time.
-        let key = |h: &Pending| (h.object, h.cell as *const Cell as usize);
-        pending.sort_by_key(key);
+        // By cell too, for the normals; in the same order in every run, since shading adds to
+        // the pixels' sums in this order.
+        pending.sort_by_key(|h| (h.object, h.cell.id()));
         for group in pending.chunk_by(|a, b| a.object == b.object) {
             let object = &fs.objects[group[0].object as usize];
             for chunk in group.chunks(LANES) {

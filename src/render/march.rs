@@ -125,15 +125,13 @@ impl Marcher {
         hits.clear();
         hits.resize(rays.len(), Hit::Beyond);
         self.state.clear();
-        self.state.resize(
-            rays.len(),
-            State {
-                omega: OMEGA,
-                ..State::default()
-            },
-        );
+        self.state.resize(rays.len(), State::default());
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
+            // An unsigned distance does not change sign where a relaxed step crosses a
+            // surface, and the spheres of the two points still touch there: rays inside
+            // objects take plain steps.
+            st.omega = if r.interior { 1.0 } else { OMEGA };
         }
         let mut at: Vec<Option<&Cell>> = vec![None; rays.len()];
         self.active.clear();

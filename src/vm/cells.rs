@@ -298,6 +298,12 @@ impl Cell {
         }
     }
 
+    /// Which cell this is, the same in every run (its depth and corner), for ordering work
+    /// by cell without depending on where it lives in memory.
+    pub fn id(&self) -> (u32, [u64; 4]) {
+        (self.depth, self.lo.to_array().map(f64::to_bits))
+    }
+
     pub fn contains(&self, p: DVec4) -> bool {
         (0..4).all(|a| self.lo[a] <= p[a] && p[a] < self.lo[a] + self.size)
     }
