@@ -156,3 +156,31 @@ fn every_code_is_covered() {
         .collect();
     assert!(missing.is_empty(), "no error file produces {missing:?}");
 }
+
+/// A call with 100,000 extra arguments on one 300 KB line: one error for all of them, and the
+/// line echoed only up to a little past the labels.
+#[test]
+fn many_extra_arguments_on_one_line() {
+    let source = format!(
+        "object a {{ shape = hypersphere(1{}) }}\n",
+        ", 1".repeat(100_000)
+    );
+    let c = Compilation::from_source("many_arguments.4ds", &source);
+    let rendered = c.render_diagnostics(false);
+    assert_eq!(c.diagnostics.len(), 1, "{rendered}");
+    assert!(rendered.len() < 4_000, "{} bytes echoed", rendered.len());
+    insta::assert_snapshot!(rendered);
+}
+
+/// A list literal is bound by the same 100,000-item limit as a range.
+#[test]
+fn list_literal_too_large() {
+    let source = format!(
+        "let xs = [{}]\nobject a {{ shape = hypersphere(len(xs)) }}\n",
+        vec!["1"; 100_001].join(", ")
+    );
+    let c = Compilation::from_source("big_list.4ds", &source);
+    let codes: Vec<&str> = c.diagnostics.iter().map(|d| d.code).collect();
+    assert_eq!(codes, ["E0402"]);
+    insta::assert_snapshot!(c.render_diagnostics(false));
+}

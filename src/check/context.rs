@@ -48,6 +48,8 @@ pub struct Checker<'a> {
     pub(super) call_depth: usize,
     pub(super) work: usize,
     pub(super) aborted: bool,
+    /// Set once a runaway recursion is reported, until the outermost call returns.
+    pub(super) recursion_reported: bool,
 }
 impl<'a> Checker<'a> {
     pub fn new(asts: &'a [Ast], imports: Vec<Vec<FileId>>) -> Self {
@@ -61,6 +63,7 @@ impl<'a> Checker<'a> {
             call_depth: 0,
             work: 0,
             aborted: false,
+            recursion_reported: false,
         };
         for (f, ast) in asts.iter().enumerate() {
             for item in &ast.items {
@@ -202,6 +205,8 @@ impl<'a> Checker<'a> {
         let mut ok = true;
         let mut next = 0;
         let mut seen_named = false;
+        let positional = args.iter().filter(|a| a.name.is_none()).count();
+        let mut extra_reported = false;
         for a in args {
             match &a.name {
                 None if seen_named => {
@@ -216,10 +221,19 @@ impl<'a> Checker<'a> {
                     slots[next] = Some(a);
                     next += 1;
                 }
+                // One report for all the extra arguments of a call, at the first.
+                None if extra_reported => {}
                 None => {
+                    extra_reported = true;
+                    let extra = positional.saturating_sub(params.len());
+                    let what = if extra == 1 {
+                        "this argument is extra".to_string()
+                    } else {
+                        format!("this and {} more arguments are extra", extra - 1)
+                    };
                     self.error(
                         Diagnostic::error("E0202", format!("too many arguments to `{fname}`"))
-                            .label(a.span, "this argument is extra")
+                            .label(a.span, what)
                             .label(
                                 call,
                                 format!(

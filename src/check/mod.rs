@@ -79,7 +79,7 @@ impl Loader {
                 let at = e.utf8_error().valid_up_to();
                 let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
                 let id = self.sources.add(name, Some(path), text);
-                let line = self.sources.get(id).text[..at].matches('\n').count() + 1;
+                let line = self.sources.line_col(id, at).0;
                 let mut d = Diagnostic::error("E0503", format!("`{name}` is not valid UTF-8"))
                     .label(
                         Span::new(id, at, at + '\u{FFFD}'.len_utf8()),
@@ -119,6 +119,10 @@ impl Loader {
             .collect();
         self.asts[file.0 as usize] = ast;
         for (rel, span) in imports {
+            // An unterminated path was reported by the lexer; reading it would only add noise.
+            if !self.sources.snippet(span).ends_with('"') || self.sources.snippet(span).len() < 2 {
+                continue;
+            }
             let path = dir.join(&rel);
             let canon = std::fs::canonicalize(&path).unwrap_or(path.clone());
             if let Some(pos) = stack.iter().position(|(p, _)| *p == canon) {

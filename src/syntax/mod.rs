@@ -24,10 +24,18 @@ pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
         let span = Span::new(file, range.start, range.end);
         match tok {
             Token::Error(e) => {
-                diags.push(lex_error(e, span, &src[range.clone()]));
-                // Stand in a number so the parser does not report the same mistake again.
-                if e == LexError::GluedNumber {
-                    tokens.push((Token::Number("0"), SimpleSpan::from(range)));
+                let text = &src[range.clone()];
+                diags.push(lex_error(e, span, text));
+                // Stand in what was meant, so the parser does not report the mistake again.
+                let stand_in = match e {
+                    LexError::GluedNumber => Some(Token::Number("0")),
+                    LexError::NonAsciiName => Some(Token::Ident("_")),
+                    LexError::UnterminatedString => Some(Token::Str("\"\"")),
+                    LexError::BadChar if text == "%" => Some(Token::Mod),
+                    _ => None,
+                };
+                if let Some(t) = stand_in {
+                    tokens.push((t, SimpleSpan::from(range)));
                 }
             }
             tok => tokens.push((tok, SimpleSpan::from(range))),
@@ -80,9 +88,27 @@ fn lex_error(e: LexError, span: Span, text: &str) -> Diagnostic {
                     Some("colours are written `#rrggbb` with exactly six hex digits".to_string())
                 }
                 '\'' => Some("strings use double quotes: \"like this\"".to_string()),
+                '°' => Some(
+                    "angles are written with a unit: `60deg`, `0.5rad` or `0.25turn`".to_string(),
+                ),
                 _ => None,
             };
             d.maybe_help(hint)
+        }
+        LexError::NonAsciiName => {
+            let ascii: String = deunicode::deunicode(text)
+                .chars()
+                .map(|c| if c == ' ' { '_' } else { c })
+                .filter(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            let hint = if ascii.is_empty() || ascii.starts_with(|c: char| c.is_ascii_digit()) {
+                "use ASCII letters, digits and `_`, as in `ball_2`".to_string()
+            } else {
+                format!("use ASCII letters, digits and `_`, as in `{ascii}`")
+            };
+            Diagnostic::error("E0001", format!("`{text}` is not a valid name"))
+                .label(span, "names are ASCII letters, digits and `_`")
+                .help(hint)
         }
         LexError::UnterminatedString => Diagnostic::error("E0002", "unterminated string")
             .label(span, "this string has no closing `\"`")
@@ -203,9 +229,10 @@ fn check_structure(file: FileId, tokens: &[(Token, SimpleSpan)]) -> Vec<Diagnost
                     Token::LBracket => Token::RBracket,
                     _ => Token::RBrace,
                 };
+                let opener_open = stack.iter().any(|(open, _)| want(open) == *tok);
                 match stack.pop() {
                     Some((open, _)) if want(&open) == *tok => {}
-                    Some((open, ospan)) => {
+                    Some((open, ospan)) if opener_open => {
                         diags.push(
                             Diagnostic::error(
                                 "E0011",
@@ -216,15 +243,20 @@ fn check_structure(file: FileId, tokens: &[(Token, SimpleSpan)]) -> Vec<Diagnost
                         );
                         return diags;
                     }
-                    None => {
-                        diags.push(
-                            Diagnostic::error(
-                                "E0011",
-                                format!("unexpected closing delimiter {tok}"),
-                            )
-                            .label(sp(span), "there is nothing here for it to close")
-                            .help("remove it, or add the opening delimiter it belongs to"),
-                        );
+                    // Nothing open that this closes: a stray, most likely one too many.
+                    inner => {
+                        let mut d = Diagnostic::error(
+                            "E0011",
+                            format!("unexpected closing delimiter {tok}"),
+                        )
+                        .label(sp(span), "there is nothing here for it to close");
+                        if let Some((open, ospan)) = inner {
+                            d = d.label(
+                                sp(&ospan),
+                                format!("the innermost open group is this {open}"),
+                            );
+                        }
+                        diags.push(d.help(format!("delete this {tok}")));
                         return diags;
                     }
                 }
@@ -293,7 +325,14 @@ fn parse_error(file: FileId, src: &str, e: Rich<Token>) -> Diagnostic {
         expected.retain(|e| !OPERATORS.contains(&e.as_str()));
         expected.push("an operator".to_string());
     }
-    let found_text = found.clone().unwrap_or_else(|| "end of file".to_string());
+    let text = src.get(e.span().start..e.span().end).unwrap_or("");
+    let found_text = match e.found() {
+        None => "end of file".to_string(),
+        Some(Token::Number(_)) => format!("number `{text}`"),
+        Some(Token::Hex(_)) => format!("colour `{text}`"),
+        Some(Token::Str(_)) => format!("string `{text}`"),
+        Some(_) => found.clone().unwrap_or_default(),
+    };
     let mut d = Diagnostic::error("E0010", format!("unexpected {found_text}"))
         .label(span, format!("expected {}", one_of_list(&expected)));
     for (label, cspan) in e.contexts() {
@@ -302,7 +341,6 @@ fn parse_error(file: FileId, src: &str, e: Rich<Token>) -> Diagnostic {
             d = d.label(cspan, format!("while parsing {label}"));
         }
     }
-    let text = src.get(e.span().start..e.span().end).unwrap_or("");
     d.maybe_help(parse_hint(e.found(), text, &expected))
 }
 
@@ -346,6 +384,22 @@ fn parse_hint(found: Option<&Token>, text: &str, expected: &[String]) -> Option<
             Some("`else` must follow the closing `}` of an `if` block".to_string())
         }
         Some(Token::LBrace) if wants("`else`") => None,
+        Some(Token::Ident(name)) if wants("an item") => {
+            let block = [ast::BlockKind::Render, ast::BlockKind::Camera]
+                .into_iter()
+                .find(|b| b.settings().contains(name));
+            match block {
+                Some(b) => Some(format!(
+                    "`{name}` is a setting of the `{}` block: write it inside `{} {{ {name} = ... }}`",
+                    b.keyword(),
+                    b.keyword()
+                )),
+                None if ast::OBJECT_SETTINGS.contains(name) => Some(format!(
+                    "`{name}` is a setting of an object: write it inside `object name {{ {name} = ... }}`"
+                )),
+                None => None,
+            }
+        }
         _ if wants("`else`") => {
             Some("every `if` needs an `else`: both branches give the value".to_string())
         }
