@@ -54,6 +54,7 @@
 
 #[doc(hidden)]
 pub mod check;
+pub mod codes;
 pub mod compile;
 #[doc(hidden)]
 pub mod denoise;

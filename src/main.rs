@@ -46,6 +46,8 @@ enum Command {
     Bench(bench_command::BenchArgs),
     /// Compile a scene and print one stage of it, write it to a file, or check it against one.
     Compile(compile_command::CompileArgs),
+    /// Explain a diagnostic code (such as E0201) with an example and its fix.
+    Explain { code: String },
 }
 
 /// Compile `file` for a command that renders it and print its diagnostics (in colour when
@@ -118,5 +120,19 @@ fn main() -> ExitCode {
         Command::Render(args) => render_command::run(args, color),
         Command::Bench(args) => bench_command::run(args, color),
         Command::Compile(args) => compile_command::run(args, color),
+        Command::Explain { code } => match hyperslice::codes::find(&code) {
+            Some(c) => {
+                print!("{}", hyperslice::codes::explain(c));
+                ExitCode::SUCCESS
+            }
+            None => {
+                let known: Vec<&str> = hyperslice::codes::CODES.iter().map(|c| c.code).collect();
+                eprintln!(
+                    "error: no diagnostic code `{code}`; the codes are {}",
+                    known.join(", ")
+                );
+                ExitCode::FAILURE
+            }
+        },
     }
 }
