@@ -156,6 +156,54 @@ impl Diagnostic {
     }
 }
 
+impl Diagnostic {
+    /// The machine-readable form `--message-format json` prints, one object per line like
+    /// cargo's: severity, code, message, where (1-based line and column in characters, the
+    /// end too, and the byte span), every label, notes and help.
+    pub fn to_json(&self, sources: &SourceMap) -> serde_json::Value {
+        let place = |span: Span| {
+            let (line, column) = sources.line_col(span.file, span.start as usize);
+            let (end_line, end_column) = sources.line_col(span.file, span.end as usize);
+            serde_json::json!({
+                "file": sources.get(span.file).name,
+                "line": line,
+                "column": column,
+                "end_line": end_line,
+                "end_column": end_column,
+                "byte_start": span.start,
+                "byte_end": span.end,
+            })
+        };
+        let labels: Vec<serde_json::Value> = (self.labels.iter().enumerate())
+            .map(|(i, l)| {
+                let mut v = place(l.span);
+                v["message"] = l.message.clone().into();
+                v["primary"] = (i == 0).into();
+                v
+            })
+            .collect();
+        let mut v = match self.primary_span() {
+            Some(span) => place(span),
+            None => serde_json::json!({
+                "file": null, "line": null, "column": null, "end_line": null,
+                "end_column": null, "byte_start": null, "byte_end": null,
+            }),
+        };
+        v["type"] = "diagnostic".into();
+        v["severity"] = match self.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        }
+        .into();
+        v["code"] = self.code.into();
+        v["message"] = self.message.clone().into();
+        v["labels"] = labels.into();
+        v["notes"] = self.notes.clone().into();
+        v["help"] = self.help.clone().into();
+        v
+    }
+}
+
 /// The plain one-paragraph form, used where there is no source to show (missing files).
 impl fmt::Display for Diagnostic {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

@@ -143,7 +143,13 @@ impl From<check::Checked> for Compilation {
 impl Compilation {
     /// Compile a file from disk; imports resolve relative to it.
     pub fn from_path(path: &Path) -> Compilation {
-        check::compile_path(path).into()
+        Self::from_path_with(path, &[])
+    }
+
+    /// Compile a file with `-D NAME=VALUE` overrides of its top-level `let`s: each value is a
+    /// constant expression, checked against the type of the value it replaces.
+    pub fn from_path_with(path: &Path, defines: &[String]) -> Compilation {
+        check::compile_path(path, defines).into()
     }
 
     /// Compile text held in memory; imports resolve relative to the current directory.

@@ -32,12 +32,52 @@ enum ColorChoice {
     Never,
 }
 
+/// What every command that compiles a scene takes: overrides and the diagnostics' format.
+#[derive(clap::Args, Clone, Default)]
+pub struct SceneArgs {
+    /// Override a top-level `let` of the scene: NAME=VALUE, with VALUE a constant expression of
+    /// the same type (repeat for several).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<String>,
+    /// Diagnostics as reports with the source (human), or as one JSON object per line on
+    /// standard output (json), like cargo's.
+    #[arg(long, value_enum, default_value_t)]
+    pub message_format: MessageFormat,
+}
+
+#[derive(Clone, Copy, Default, PartialEq, Eq, ValueEnum)]
+pub enum MessageFormat {
+    #[default]
+    Human,
+    Json,
+}
+
+impl SceneArgs {
+    pub fn compile(&self, file: &Path) -> Compilation {
+        Compilation::from_path_with(file, &self.define)
+    }
+
+    /// Print the diagnostics of `c` in the chosen format.
+    pub fn report(&self, c: &Compilation, color: bool) {
+        match self.message_format {
+            MessageFormat::Human => eprint!("{}", c.render_diagnostics(color)),
+            MessageFormat::Json => {
+                for d in &c.diagnostics {
+                    println!("{}", d.to_json(&c.sources));
+                }
+            }
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Parse and type-check scenes; print diagnostics. Exit 1 if any has an error.
     Check {
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        #[command(flatten)]
+        scene: SceneArgs,
     },
     /// Render a scene to an animated GIF, PNG frames or EXR frames.
     Render(render_command::RenderArgs),
@@ -52,9 +92,9 @@ enum Command {
 
 /// Compile `file` for a command that renders it and print its diagnostics (in colour when
 /// `color`); the scene when it compiled.
-fn compile(file: &Path, color: bool) -> Option<Scene> {
-    let c = Compilation::from_path(file);
-    eprint!("{}", c.render_diagnostics(color));
+fn compile(file: &Path, args: &SceneArgs, color: bool) -> Option<Scene> {
+    let c = args.compile(file);
+    args.report(&c, color);
     c.scene
 }
 
@@ -79,11 +119,11 @@ fn main() -> ExitCode {
         ColorChoice::Never => false,
     };
     match cli.command {
-        Command::Check { files } => {
+        Command::Check { files, scene: args } => {
             let mut failed = false;
             for file in &files {
-                let c = Compilation::from_path(file);
-                eprint!("{}", c.render_diagnostics(color));
+                let c = args.compile(file);
+                args.report(&c, color);
                 if c.has_errors() {
                     failed = true;
                 } else if let Some(scene) = &c.scene {

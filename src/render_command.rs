@@ -70,6 +70,8 @@ pub struct RenderArgs {
     /// Sobol sequence per pixel.
     #[arg(long, value_enum, default_value_t)]
     sampler: SamplerKind,
+    #[command(flatten)]
+    scene: crate::SceneArgs,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -171,7 +173,7 @@ pub(crate) fn extent(r: &RenderSettings) -> String {
 }
 
 pub fn run(args: RenderArgs, color: bool) -> ExitCode {
-    match crate::compile(&args.file, color) {
+    match crate::compile(&args.file, &args.scene, color) {
         Some(scene) => crate::finish(render(&args, scene)),
         None => ExitCode::FAILURE,
     }
@@ -265,6 +267,28 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     }
     if let Some(psnr) = written.gif_psnr {
         eprintln!("GIF quantisation: PSNR {psnr:.1} dB against the 8-bit frames");
+    }
+    if args.scene.message_format == crate::MessageFormat::Json {
+        let stats = serde_json::json!({
+            "type": "render-stats",
+            "file": args.file.display().to_string(),
+            "width": r.width,
+            "height": r.height,
+            "frames": r.frames,
+            "spp": r.spp,
+            "seconds": secs,
+            "samples": s.samples,
+            "samples_per_second": s.samples as f64 / secs.max(1e-9),
+            "samples_per_pixel": s.samples as f64 / pixels,
+            "distance_evaluations": s.evaluations,
+            "out_of_steps": s.out_of_steps,
+            "dropped": s.dropped,
+            "denoise": r.denoise.name(),
+            "denoise_seconds": rendered.denoise_time.as_secs_f64(),
+            "gif_psnr": written.gif_psnr,
+            "files": written.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        });
+        println!("{stats}");
     }
     match written.files.as_slice() {
         [one] => eprintln!("wrote {}", one.display()),

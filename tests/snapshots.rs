@@ -184,3 +184,49 @@ fn list_literal_too_large() {
     assert_eq!(codes, ["E0402"]);
     insta::assert_snapshot!(c.render_diagnostics(false));
 }
+
+/// `-D NAME=VALUE` replaces a top-level `let`: the compiled scene changes, and a grey `num`
+/// stands for a colour as it does in the scene.
+#[test]
+fn defines_override_lets() {
+    let path = Path::new("tests/in/overrides/scene.4ds");
+    let defines = ["radius=0.5".to_string(), "tint=0.25 * 2".to_string()];
+    let c = Compilation::from_path_with(path, &defines);
+    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+    let scene = c.emit_scene().unwrap_or_default();
+    assert!(scene.contains("hypersphere(radius: 0.5)"), "{scene}");
+    let plain = Compilation::from_path(path)
+        .emit_scene()
+        .unwrap_or_default();
+    assert!(plain.contains("hypersphere(radius: 1)"), "{plain}");
+}
+
+/// Every way a `-D` can be wrong is a diagnostic pointing into the command-line text.
+#[test]
+fn define_diagnostics() {
+    let path = Path::new("tests/in/overrides/scene.4ds");
+    let mut out = String::new();
+    for define in [
+        "radius=true",
+        "raduis=2",
+        "f=1",
+        "radius",
+        "radius=2 *",
+        "radius=t",
+        "radius=[1, 2]",
+    ] {
+        let c = Compilation::from_path_with(path, &[define.to_string()]);
+        assert!(c.has_errors(), "-D {define} should be an error");
+        assert!(
+            c.diagnostics
+                .iter()
+                .all(|d| d
+                    .primary_span()
+                    .is_some_and(|s| c.sources.get(s.file).name == "-D")),
+            "-D {define}: {}",
+            c.render_diagnostics(false)
+        );
+        out.push_str(&format!("$ -D {define}\n{}", c.render_diagnostics(false)));
+    }
+    insta::assert_snapshot!(out);
+}

@@ -36,6 +36,16 @@ pub struct Global {
     pub kind: GlobalKind,
     pub(super) state: GlobalState,
     pub used: bool,
+    /// A `-D NAME=VALUE` that replaces this `let`'s value.
+    pub(super) overridden: Option<Override>,
+}
+
+/// `-D NAME=VALUE`: the value's expression lives in a source file of its own.
+#[derive(Clone)]
+pub struct Override {
+    pub name: Ident,
+    pub file: FileId,
+    pub value: ExprId,
 }
 
 pub struct Checker<'a> {
@@ -85,10 +95,50 @@ impl<'a> Checker<'a> {
                     kind,
                     state: GlobalState::Pending,
                     used: false,
+                    overridden: None,
                 });
             }
         }
         ck
+    }
+
+    /// Attach each `-D` override to the root file's `let` it names, or report it.
+    pub fn apply_overrides(&mut self, root: FileId, overrides: Vec<Override>) {
+        for o in overrides {
+            let found = self.file_globals[root.0 as usize]
+                .get(&o.name.name)
+                .copied();
+            match found {
+                Some(g) if matches!(self.globals[g].kind, GlobalKind::Let(_)) => {
+                    self.globals[g].overridden = Some(o);
+                }
+                _ => {
+                    let lets: Vec<&str> = (self.globals.iter())
+                        .filter(|g| g.file == root && matches!(g.kind, GlobalKind::Let(_)))
+                        .map(|g| g.name.name.as_str())
+                        .collect();
+                    let what = if found.is_some() {
+                        "is a function, not a `let`"
+                    } else {
+                        "is not a top-level `let` of the scene"
+                    };
+                    let hint = did_you_mean(&o.name.name, lets.iter().copied()).or_else(|| {
+                        Some(if lets.is_empty() {
+                            "the scene has no top-level `let` to override".to_string()
+                        } else {
+                            let lets: Vec<String> = lets.iter().map(|l| format!("`{l}`")).collect();
+                            format!("the scene's top-level `let`s are {}", lets.join(", "))
+                        })
+                    });
+                    self.error(
+                        Diagnostic::error("E0101", format!("`-D {}`: no such `let`", o.name.name))
+                            .label(o.name.span, format!("`{}` {what}", o.name.name))
+                            .note("`-D NAME=VALUE` replaces the value of a top-level `let`")
+                            .maybe_help(hint),
+                    );
+                }
+            }
+        }
     }
 
     pub fn ast(&self, file: FileId) -> &'a Ast {

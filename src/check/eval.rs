@@ -172,6 +172,42 @@ impl Checker<'_> {
         )
     }
 
+    /// The value of `-D NAME=VALUE`: a constant of the type the scene's own value has.
+    fn override_value(&mut self, l: &LetStmt, original: Value, o: &Override) -> Value {
+        let v = self.eval(o.file, &Env::default(), o.value);
+        let span = self.span(o.file, o.value);
+        let what = format!("`-D {}`", l.name.name);
+        if v.is_error() || !self.require_const(&v, span, &what) {
+            return Value::Error;
+        }
+        if original.is_error() {
+            return Value::Error;
+        }
+        let want = original.ty();
+        let v = ops::coerce(self, v, &want);
+        if !want.accepts(&v.ty()) {
+            let found = v.ty();
+            return self.error(
+                Diagnostic::error(
+                    "E0201",
+                    format!(
+                        "mismatched types: `-D {}` must be {}",
+                        l.name.name,
+                        article(&want)
+                    ),
+                )
+                .label(span, format!("expected {want}, found {found}"))
+                .label(
+                    l.name.span,
+                    format!("`{}` is {} in the scene", l.name.name, article(&want)),
+                )
+                .help("an override has the type of the value it replaces"),
+            );
+        }
+        // The original passed its annotation, if any, so `want` already is that type.
+        v
+    }
+
     pub fn warn_unused_scope(&mut self, s: &Scope, what: &str) {
         if !s.used.get() && !s.name.starts_with('_') && !self.aborted {
             self.diags.push(unused(&s.name, s.span, what));
@@ -291,7 +327,11 @@ impl Checker<'_> {
                 let l = l.clone();
                 self.globals[g].state = GlobalState::InProgress;
                 let v = self.eval(file, &Env::default(), l.value);
-                self.annotate(file, &l, v)
+                let v = self.annotate(file, &l, v);
+                match self.globals[g].overridden.clone() {
+                    Some(o) => self.override_value(&l, v, &o),
+                    None => v,
+                }
             }
         };
         self.globals[g].state = GlobalState::Done(v.clone());

@@ -29,10 +29,11 @@ const MAX_FILES: usize = 1000;
 /// Diagnostics beyond this many are summarised.
 const MAX_DIAGNOSTICS: usize = 100;
 
-pub fn compile_path(path: &Path) -> Checked {
+/// Compile a file; `defines` are `-D NAME=VALUE` overrides of its top-level `let`s.
+pub fn compile_path(path: &Path, defines: &[String]) -> Checked {
     let mut loader = Loader::default();
     match loader.read(path, &path.display().to_string(), None) {
-        Ok(root) => loader.finish(root),
+        Ok(root) => loader.finish(root, defines),
         Err(d) => Checked {
             sources: loader.sources,
             diagnostics: vec![d],
@@ -45,7 +46,7 @@ pub fn compile_path(path: &Path) -> Checked {
 pub fn compile_source(name: &str, text: &str) -> Checked {
     let mut loader = Loader::default();
     let root = loader.sources.add(name, None, text);
-    loader.finish(root)
+    loader.finish(root, &[])
 }
 
 #[derive(Default)]
@@ -197,17 +198,49 @@ impl Loader {
         }
     }
 
-    fn finish(mut self, root: FileId) -> Checked {
+    /// Each override is a source file of its own (named `-D`, or `-D #2` and so on when there
+    /// are several) that sees the root file's definitions.
+    fn add_defines(&mut self, root: FileId, defines: &[String]) -> Vec<context::Override> {
+        let mut out = vec![];
+        for (i, text) in defines.iter().enumerate() {
+            let name = if defines.len() == 1 {
+                "-D".to_string()
+            } else {
+                format!("-D #{}", i + 1)
+            };
+            let id = self.sources.add(name, None, text.as_str());
+            let (define, ast, diags) = syntax::parse_define(id, text);
+            self.diags.extend(diags);
+            while self.asts.len() <= id.0 as usize {
+                self.asts.push(Ast::default());
+                self.imports.push(vec![]);
+            }
+            self.asts[id.0 as usize] = ast;
+            self.imports[id.0 as usize] = vec![root];
+            if let Some((name, value)) = define {
+                out.push(context::Override {
+                    name,
+                    file: id,
+                    value,
+                });
+            }
+        }
+        out
+    }
+
+    fn finish(mut self, root: FileId, defines: &[String]) -> Checked {
         let root_path = self.sources.get(root).path.clone();
         let canon = root_path
             .as_ref()
             .map(|p| std::fs::canonicalize(p).unwrap_or(p.clone()));
         let mut stack: Vec<(PathBuf, FileId)> = canon.map(|c| (c, root)).into_iter().collect();
         self.load(root, &mut stack);
+        let overrides = self.add_defines(root, defines);
         let parse_failed = self.diags.iter().any(Diagnostic::is_error);
         let mut scene = None;
         if !parse_failed {
             let mut ck = context::Checker::new(&self.asts, std::mem::take(&mut self.imports));
+            ck.apply_overrides(root, overrides);
             let s = scene::build(&mut ck, root);
             ck.finish_globals(root);
             let failed = ck.diags.iter().any(Diagnostic::is_error);

@@ -19,28 +19,7 @@ pub const MAX_NESTING: usize = 256;
 /// Parse one file. Always returns a tree (possibly partial) and the diagnostics found.
 pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    let mut tokens = Vec::new();
-    for (tok, range) in token::lex(src) {
-        let span = Span::new(file, range.start, range.end);
-        match tok {
-            Token::Error(e) => {
-                let text = &src[range.clone()];
-                diags.push(lex_error(e, span, text));
-                // Stand in what was meant, so the parser does not report the mistake again.
-                let stand_in = match e {
-                    LexError::GluedNumber => Some(Token::Number("0")),
-                    LexError::NonAsciiName => Some(Token::Ident("_")),
-                    LexError::UnterminatedString => Some(Token::Str("\"\"")),
-                    LexError::BadChar if text == "%" => Some(Token::Mod),
-                    _ => None,
-                };
-                if let Some(t) = stand_in {
-                    tokens.push((t, SimpleSpan::from(range)));
-                }
-            }
-            tok => tokens.push((tok, SimpleSpan::from(range))),
-        }
-    }
+    let tokens = tokens(file, src, &mut diags);
     let structural = check_structure(file, &tokens);
     if !structural.is_empty() {
         // Unbalanced or absurdly deep input: the parser would only echo these.
@@ -69,6 +48,77 @@ pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
         ast = Ast::default();
     }
     (ast, diags)
+}
+
+/// A command-line override `NAME=VALUE`, held as a source file of its own so that its
+/// diagnostics point into it: the name and the value's expression, or the diagnostics.
+pub fn parse_define(
+    file: FileId,
+    src: &str,
+) -> (Option<(ast::Ident, ast::ExprId)>, Ast, Vec<Diagnostic>) {
+    let mut diags = Vec::new();
+    let tokens = tokens(file, src, &mut diags);
+    diags.extend(check_structure(file, &tokens));
+    let mut state = chumsky::extra::SimpleState(parser::Builder {
+        ast: Ast::default(),
+        file,
+    });
+    let name = match tokens.as_slice() {
+        [(Token::Ident(name), nspan), (Token::Eq, _), _, ..] if diags.is_empty() => ast::Ident {
+            name: name.to_string(),
+            span: Span::new(file, nspan.start, nspan.end),
+        },
+        _ => {
+            if diags.is_empty() {
+                diags.push(
+                    Diagnostic::error("E0010", "`-D` takes NAME=VALUE")
+                        .label(Span::new(file, 0, src.len()), "this is not `NAME=VALUE`")
+                        .help("override a top-level `let`, as in `-D radius=0.5`"),
+                );
+            }
+            return (None, state.0.ast, diags);
+        }
+    };
+    let eoi = SimpleSpan::from(src.len()..src.len());
+    let input = tokens[2..].map(eoi, |(t, s)| (t, s));
+    let (value, errors) = parser::expr()
+        .then_ignore(end())
+        .parse_with_state(input, &mut state)
+        .into_output_errors();
+    diags.extend(errors.into_iter().map(|e| parse_error(file, src, e)));
+    let value = value.filter(|_| diags.is_empty());
+    (value.map(|v| (name, v)), state.0.ast, diags)
+}
+
+/// Lex a file into the parser's tokens, reporting lexing errors and standing in what was meant.
+fn tokens<'s>(
+    file: FileId,
+    src: &'s str,
+    diags: &mut Vec<Diagnostic>,
+) -> Vec<(Token<'s>, SimpleSpan)> {
+    let mut tokens = Vec::new();
+    for (tok, range) in token::lex(src) {
+        let span = Span::new(file, range.start, range.end);
+        match tok {
+            Token::Error(e) => {
+                let text = &src[range.clone()];
+                diags.push(lex_error(e, span, text));
+                // Stand in what was meant, so the parser does not report the mistake again.
+                let stand_in = match e {
+                    LexError::GluedNumber => Some(Token::Number("0")),
+                    LexError::NonAsciiName => Some(Token::Ident("_")),
+                    LexError::UnterminatedString => Some(Token::Str("\"\"")),
+                    LexError::BadChar if text == "%" => Some(Token::Mod),
+                    _ => None,
+                };
+                if let Some(t) = stand_in {
+                    tokens.push((t, SimpleSpan::from(range)));
+                }
+            }
+            tok => tokens.push((tok, SimpleSpan::from(range))),
+        }
+    }
+    tokens
 }
 
 fn lex_error(e: LexError, span: Span, text: &str) -> Diagnostic {
