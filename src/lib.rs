@@ -152,6 +152,12 @@ impl Compilation {
         check::compile_path(path, defines).into()
     }
 
+    /// Compile the unsaved text of the file at `path` (an editor's buffer); imports resolve
+    /// relative to `path`.
+    pub fn from_text(path: &Path, text: &str) -> Compilation {
+        check::compile_text(path, text).into()
+    }
+
     /// Compile text held in memory; imports resolve relative to the current directory.
     pub fn from_source(name: &str, text: &str) -> Compilation {
         check::compile_source(name, text).into()

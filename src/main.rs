@@ -9,6 +9,7 @@ use std::process::ExitCode;
 
 mod bench_command;
 mod compile_command;
+mod fmt_command;
 mod render_command;
 
 #[derive(Parser)]
@@ -86,6 +87,9 @@ enum Command {
     Bench(bench_command::BenchArgs),
     /// Compile a scene and print one stage of it, write it to a file, or check it against one.
     Compile(compile_command::CompileArgs),
+    /// Format scenes in place (`--check`: only list those that would change; `-`: standard
+    /// input to standard output).
+    Fmt(fmt_command::FmtArgs),
     /// Explain a diagnostic code (such as E0201) with an example and its fix.
     Explain { code: String },
 }
@@ -160,6 +164,7 @@ fn main() -> ExitCode {
         Command::Render(args) => render_command::run(args, color),
         Command::Bench(args) => bench_command::run(args, color),
         Command::Compile(args) => compile_command::run(args, color),
+        Command::Fmt(args) => fmt_command::run(args, color),
         Command::Explain { code } => match hyperslice::codes::find(&code) {
             Some(c) => {
                 print!("{}", hyperslice::codes::explain(c));

@@ -125,3 +125,124 @@ fn defines_reach_check_compile_and_render() {
     assert_eq!(stats["samples"].as_u64(), Some(48));
     assert_eq!(stats["files"][0], "d.png");
 }
+
+/// Every example, valid scene and error file that parses: formatting keeps the syntax tree
+/// (and so the meaning, comments aside) and the compiled scene, and a second pass changes
+/// nothing.
+#[test]
+fn fmt_keeps_meaning_and_is_idempotent() {
+    use hyperslice::Compilation;
+    use hyperslice::syntax::format::format;
+    let mut seen = 0;
+    for dir in ["examples", "tests/in", "tests/in/errors", "tests/in/lib"] {
+        for entry in std::fs::read_dir(dir).expect("listed") {
+            let path = entry.expect("entry").path();
+            if path.extension().is_none_or(|e| e != "4ds") {
+                continue;
+            }
+            let Ok(text) = std::fs::read_to_string(&path) else {
+                continue;
+            };
+            let before = Compilation::from_text(&path, &text);
+            let Ok(out) = format(hyperslice::source::FileId(0), &text) else {
+                continue;
+            };
+            seen += 1;
+            let after = Compilation::from_text(&path, &out);
+            let what = path.display();
+            assert_eq!(
+                before.emit_ast(),
+                after.emit_ast(),
+                "{what}: the tree changed:\n{out}"
+            );
+            assert_eq!(
+                before.emit_scene(),
+                after.emit_scene(),
+                "{what}: the scene changed"
+            );
+            let codes = |c: &Compilation| -> Vec<(String, String)> {
+                (c.diagnostics.iter())
+                    .map(|d| (d.code.to_string(), d.message.clone()))
+                    .collect()
+            };
+            assert_eq!(
+                codes(&before),
+                codes(&after),
+                "{what}: the diagnostics changed"
+            );
+            let again = format(hyperslice::source::FileId(0), &out).expect("formatted text parses");
+            assert_eq!(again, out, "{what}: a second pass changed it");
+            let comments = |s: &str| s.matches("//").count() + s.matches("/*").count();
+            assert_eq!(comments(&text), comments(&out), "{what}: comments lost");
+        }
+    }
+    assert!(seen > 100, "only {seen} files formatted");
+}
+
+#[test]
+fn fmt_check_in_place_and_stdin() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let messy = "object ball{shape=hypersphere( 1 )}\n";
+    let tidy = "object ball { shape = hypersphere(1) }\n";
+    std::fs::write(dir.path().join("a.4ds"), messy).expect("written");
+    std::fs::write(dir.path().join("b.4ds"), tidy).expect("written");
+    let o = hyperslice(dir.path(), &["fmt", "--check", "a.4ds", "b.4ds"]);
+    assert!(!o.status.success());
+    assert_eq!(stdout(&o), "a.4ds\n");
+    let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).expect("read");
+    assert_eq!(read("a.4ds"), messy, "--check changed a file");
+    let o = hyperslice(dir.path(), &["fmt", "a.4ds", "b.4ds"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(read("a.4ds"), tidy);
+    assert!(
+        hyperslice(dir.path(), &["fmt", "--check", "a.4ds"])
+            .status
+            .success()
+    );
+    // A file that does not parse is reported and left alone.
+    std::fs::write(dir.path().join("c.4ds"), "let a = (\n").expect("written");
+    let o = hyperslice(dir.path(), &["fmt", "c.4ds"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("E0011"), "{}", stderr(&o));
+    assert_eq!(read("c.4ds"), "let a = (\n");
+    // Standard input to standard output.
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+        .args(["fmt", "-"])
+        .stdin(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .expect("started");
+    use std::io::Write;
+    child
+        .stdin
+        .take()
+        .expect("stdin")
+        .write_all(messy.as_bytes())
+        .expect("fed");
+    let o = child.wait_with_output().expect("ran");
+    assert!(o.status.success());
+    assert_eq!(stdout(&o), tidy);
+}
+
+/// The examples are kept in the formatter's style.
+#[test]
+fn examples_are_formatted() {
+    let o = hyperslice(
+        Path::new("examples"),
+        &[
+            "fmt",
+            "--check",
+            "d4_packing.4ds",
+            "glass_box.4ds",
+            "polytopes.4ds",
+            "room.4ds",
+            "tesseract.4ds",
+        ],
+    );
+    assert!(
+        o.status.success(),
+        "not formatted: {}{}",
+        stdout(&o),
+        stderr(&o)
+    );
+}

@@ -43,6 +43,16 @@ pub fn compile_path(path: &Path, defines: &[String]) -> Checked {
     }
 }
 
+/// Compile the text of the file at `path` as it is in an editor, not on disk: imports resolve
+/// relative to `path`.
+pub fn compile_text(path: &Path, text: &str) -> Checked {
+    let mut loader = Loader::default();
+    let root = loader
+        .sources
+        .add(path.display().to_string(), Some(path), text);
+    loader.finish(root, &[])
+}
+
 pub fn compile_source(name: &str, text: &str) -> Checked {
     let mut loader = Loader::default();
     let root = loader.sources.add(name, None, text);

@@ -1,6 +1,7 @@
 //! Source text to syntax tree: lexing, a delimiter and nesting pre-pass, then the chumsky parser.
 
 pub mod ast;
+pub mod format;
 pub mod parser;
 pub mod print;
 pub mod token;
