@@ -127,6 +127,8 @@ pub struct Compilation {
     pub diagnostics: Vec<Diagnostic>,
     pub ast: syntax::ast::Ast,
     pub scene: Option<scene::Scene>,
+    /// Every name use resolved to its definition, with its type: for editors.
+    pub resolved: Vec<check::Resolved>,
 }
 
 impl From<check::Checked> for Compilation {
@@ -136,6 +138,7 @@ impl From<check::Checked> for Compilation {
             diagnostics: c.diagnostics,
             ast: c.ast,
             scene: c.scene,
+            resolved: c.resolved,
         }
     }
 }

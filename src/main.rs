@@ -10,6 +10,7 @@ use std::process::ExitCode;
 mod bench_command;
 mod compile_command;
 mod fmt_command;
+mod lsp_command;
 mod render_command;
 
 #[derive(Parser)]
@@ -90,6 +91,8 @@ enum Command {
     /// Format scenes in place (`--check`: only list those that would change; `-`: standard
     /// input to standard output).
     Fmt(fmt_command::FmtArgs),
+    /// Run the language server over standard input and output (for editors).
+    Lsp,
     /// Explain a diagnostic code (such as E0201) with an example and its fix.
     Explain { code: String },
 }
@@ -165,6 +168,7 @@ fn main() -> ExitCode {
         Command::Bench(args) => bench_command::run(args, color),
         Command::Compile(args) => compile_command::run(args, color),
         Command::Fmt(args) => fmt_command::run(args, color),
+        Command::Lsp => lsp_command::run(),
         Command::Explain { code } => match hyperslice::codes::find(&code) {
             Some(c) => {
                 print!("{}", hyperslice::codes::explain(c));

@@ -246,3 +246,215 @@ fn examples_are_formatted() {
         stderr(&o)
     );
 }
+
+/// A language server session driven as an editor drives it, over the binary's stdio.
+struct Lsp {
+    child: std::process::Child,
+    stdin: std::process::ChildStdin,
+    stdout: std::io::BufReader<std::process::ChildStdout>,
+}
+
+impl Lsp {
+    fn start() -> Lsp {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+            .arg("lsp")
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .spawn()
+            .expect("started");
+        let stdin = child.stdin.take().expect("stdin");
+        let stdout = std::io::BufReader::new(child.stdout.take().expect("stdout"));
+        Lsp {
+            child,
+            stdin,
+            stdout,
+        }
+    }
+
+    fn send(&mut self, msg: serde_json::Value) {
+        use std::io::Write;
+        let body = msg.to_string();
+        write!(self.stdin, "Content-Length: {}\r\n\r\n{body}", body.len()).expect("sent");
+        self.stdin.flush().expect("flushed");
+    }
+
+    fn read(&mut self) -> serde_json::Value {
+        use std::io::{BufRead, Read};
+        let mut len = 0;
+        loop {
+            let mut line = String::new();
+            assert!(
+                self.stdout.read_line(&mut line).expect("a header") > 0,
+                "server closed"
+            );
+            let line = line.trim_end();
+            if line.is_empty() {
+                break;
+            }
+            if let Some(n) = line.strip_prefix("Content-Length: ") {
+                len = n.parse().expect("a length");
+            }
+        }
+        let mut body = vec![0; len];
+        self.stdout.read_exact(&mut body).expect("a body");
+        serde_json::from_slice(&body).expect("JSON")
+    }
+
+    /// Send a request and read up to its response, keeping notifications that come first.
+    fn request(&mut self, id: u64, method: &str, params: serde_json::Value) -> serde_json::Value {
+        self.send(
+            serde_json::json!({"jsonrpc": "2.0", "id": id, "method": method, "params": params}),
+        );
+        loop {
+            let msg = self.read();
+            if msg["id"] == id {
+                return msg["result"].clone();
+            }
+        }
+    }
+
+    fn notify(&mut self, method: &str, params: serde_json::Value) {
+        self.send(serde_json::json!({"jsonrpc": "2.0", "method": method, "params": params}));
+    }
+}
+
+#[test]
+fn language_server_session() {
+    use serde_json::json;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().canonicalize().expect("a path").join("scene.4ds");
+    let text = "let radius = 0.5\nobject ball { shape = hypersphere( radius ) }\nobject b2 { shape = hypersfere(1) }\n";
+    std::fs::write(&path, text).expect("written");
+    let uri = format!("file://{}", path.display());
+    let doc = json!({"uri": uri});
+    let at = |line: u32, character: u32| json!({"textDocument": doc, "position": {"line": line, "character": character}});
+
+    let mut lsp = Lsp::start();
+    let init = lsp.request(
+        1,
+        "initialize",
+        json!({"capabilities": {}, "processId": null, "rootUri": null}),
+    );
+    assert_eq!(init["capabilities"]["hoverProvider"], true, "{init}");
+    lsp.notify("initialized", json!({}));
+    lsp.notify(
+        "textDocument/didOpen",
+        json!({"textDocument": {"uri": uri, "languageId": "4ds", "version": 1, "text": text}}),
+    );
+    // Diagnostics at the mistake, with the same code as `check`.
+    let diags = loop {
+        let msg = lsp.read();
+        if msg["method"] == "textDocument/publishDiagnostics" {
+            break msg["params"]["diagnostics"].clone();
+        }
+    };
+    assert_eq!(diags.as_array().map(Vec::len), Some(1), "{diags}");
+    assert_eq!(diags[0]["code"], "E0101");
+    assert_eq!(
+        diags[0]["range"]["start"],
+        json!({"line": 2, "character": 20})
+    );
+    assert_eq!(
+        diags[0]["range"]["end"],
+        json!({"line": 2, "character": 30})
+    );
+    assert!(
+        diags[0]["message"]
+            .as_str()
+            .unwrap_or("")
+            .contains("hypersphere"),
+        "{diags}"
+    );
+
+    // Hover on a use of `radius`: its type and value.
+    let hover = lsp.request(2, "textDocument/hover", at(1, 37));
+    let shown = hover["contents"]["value"]
+        .as_str()
+        .unwrap_or("")
+        .to_string();
+    assert!(shown.contains("radius: num = 0.5"), "{hover}");
+    // Hover on a builtin: its signature from the table and its line from the reference.
+    let hover = lsp.request(3, "textDocument/hover", at(1, 25));
+    let shown = hover["contents"]["value"]
+        .as_str()
+        .unwrap_or("")
+        .to_string();
+    assert!(shown.contains("hypersphere(radius: num = 1)"), "{hover}");
+
+    // Definition: the `let`'s name.
+    let def = lsp.request(4, "textDocument/definition", at(1, 37));
+    assert_eq!(def["uri"], uri.as_str());
+    assert_eq!(def["range"]["start"], json!({"line": 0, "character": 4}));
+
+    // Completion offers an object's settings inside its block, builtins elsewhere.
+    let items = lsp.request(5, "textDocument/completion", at(2, 12));
+    let labels: Vec<&str> = items
+        .as_array()
+        .expect("items")
+        .iter()
+        .filter_map(|i| i["label"].as_str())
+        .collect();
+    assert_eq!(labels, ["shape", "material"]);
+    let items = lsp.request(6, "textDocument/completion", at(1, 22));
+    let labels: Vec<&str> = items
+        .as_array()
+        .expect("items")
+        .iter()
+        .filter_map(|i| i["label"].as_str())
+        .collect();
+    assert!(
+        labels.contains(&"hyperbox") && labels.contains(&"radius"),
+        "{labels:?}"
+    );
+
+    let symbols = lsp.request(
+        7,
+        "textDocument/documentSymbol",
+        json!({"textDocument": doc}),
+    );
+    let names: Vec<&str> = symbols
+        .as_array()
+        .expect("symbols")
+        .iter()
+        .filter_map(|s| s["name"].as_str())
+        .collect();
+    assert_eq!(names, ["radius", "ball", "b2"]);
+    let tokens = lsp.request(
+        8,
+        "textDocument/semanticTokens/full",
+        json!({"textDocument": doc}),
+    );
+    assert_eq!(tokens["data"].as_array().map(|d| d.len() % 5), Some(0));
+    assert!(tokens["data"].as_array().is_some_and(|d| !d.is_empty()));
+
+    // Formatting through `fmt`: one edit with the formatted text.
+    let edits = lsp.request(
+        9,
+        "textDocument/formatting",
+        json!({"textDocument": doc, "options": {"tabSize": 2, "insertSpaces": true}}),
+    );
+    assert_eq!(
+        edits[0]["newText"],
+        "let radius = 0.5\nobject ball { shape = hypersphere(radius) }\nobject b2 { shape = hypersfere(1) }\n"
+    );
+
+    // Fixing the mistake clears the diagnostics.
+    let fixed = text.replace("hypersfere", "hypersphere");
+    lsp.notify(
+        "textDocument/didChange",
+        json!({"textDocument": {"uri": uri, "version": 2}, "contentChanges": [{"text": fixed}]}),
+    );
+    let diags = loop {
+        let msg = lsp.read();
+        if msg["method"] == "textDocument/publishDiagnostics" {
+            break msg["params"]["diagnostics"].clone();
+        }
+    };
+    assert_eq!(diags, json!([]));
+
+    let shutdown = lsp.request(10, "shutdown", json!(null));
+    assert!(shutdown.is_null());
+    lsp.notify("exit", json!(null));
+    let status = lsp.child.wait().expect("exited");
+    assert!(status.success());
+}

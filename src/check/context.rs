@@ -48,7 +48,20 @@ pub struct Override {
     pub value: ExprId,
 }
 
+/// A name resolved to its definition, with the type (and the value, for a constant) it had:
+/// what an editor shows on hover and jumps to.
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    pub name: String,
+    pub use_span: Span,
+    pub def_span: Span,
+    pub ty: String,
+    pub value: Option<String>,
+}
+
 pub struct Checker<'a> {
+    /// Every name use resolved so far, by where it is (the first evaluation wins).
+    pub resolved: HashMap<(FileId, u32), Resolved>,
     pub(super) asts: &'a [Ast],
     pub diags: Vec<Diagnostic>,
     pub fields: Fields,
@@ -64,6 +77,7 @@ pub struct Checker<'a> {
 impl<'a> Checker<'a> {
     pub fn new(asts: &'a [Ast], imports: Vec<Vec<FileId>>) -> Self {
         let mut ck = Checker {
+            resolved: HashMap::new(),
             asts,
             diags: vec![],
             fields: Fields::default(),
@@ -139,6 +153,21 @@ impl<'a> Checker<'a> {
                 }
             }
         }
+    }
+
+    pub fn record_use(&mut self, name: &Ident, def_span: Span, v: &Value) {
+        if self.aborted {
+            return;
+        }
+        self.resolved
+            .entry((name.span.file, name.span.start))
+            .or_insert_with(|| Resolved {
+                name: name.name.clone(),
+                use_span: name.span,
+                def_span,
+                ty: v.ty().to_string(),
+                value: v.describe(),
+            });
     }
 
     pub fn ast(&self, file: FileId) -> &'a Ast {

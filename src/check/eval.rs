@@ -250,10 +250,15 @@ impl Checker<'_> {
     fn lookup(&mut self, file: FileId, env: &Env, name: &Ident) -> Value {
         if let Some(s) = env.lookup(&name.name) {
             s.used.set(true);
-            return s.value.clone();
+            let v = s.value.clone();
+            self.record_use(name, s.span, &v);
+            return v;
         }
         if let Some(g) = self.find_global(file, &name.name) {
-            return self.global_value(g, name.span);
+            let v = self.global_value(g, name.span);
+            let def = self.globals[g].name.span;
+            self.record_use(name, def, &v);
+            return v;
         }
         if let Some(v) = builtins::constant(self, &name.name) {
             return v;
@@ -357,6 +362,14 @@ impl Checker<'_> {
                     let def = def.clone();
                     self.check_fn_signature(self.globals[g].file, &def);
                 }
+            }
+        }
+        // A definition resolves to itself, so hovering over it shows it too.
+        for &g in &roots {
+            let name = self.globals[g].name.clone();
+            if let GlobalState::Done(v) = &self.globals[g].state {
+                let v = v.clone();
+                self.record_use(&name, name.span, &v);
             }
         }
         for &g in &roots {

@@ -2,12 +2,14 @@
 //! ranges, and collects what depends on `p`, `n` or `t` as field expressions.
 
 mod builtins;
-mod context;
+pub(crate) mod context;
 mod eval;
 mod ops;
 mod scene;
 mod suggest;
 pub(crate) mod value;
+
+pub use context::Resolved;
 
 use crate::diagnostic::Diagnostic;
 use crate::source::{FileId, SourceMap, Span};
@@ -21,6 +23,8 @@ pub struct Checked {
     pub diagnostics: Vec<Diagnostic>,
     pub ast: Ast,
     pub scene: Option<crate::scene::Scene>,
+    /// Every name use resolved to its definition (empty when parsing failed).
+    pub resolved: Vec<context::Resolved>,
 }
 
 /// Longest chain of imports, and most files in one compilation.
@@ -39,6 +43,7 @@ pub fn compile_path(path: &Path, defines: &[String]) -> Checked {
             diagnostics: vec![d],
             ast: Ast::default(),
             scene: None,
+            resolved: vec![],
         },
     }
 }
@@ -248,11 +253,14 @@ impl Loader {
         let overrides = self.add_defines(root, defines);
         let parse_failed = self.diags.iter().any(Diagnostic::is_error);
         let mut scene = None;
+        let mut resolved = vec![];
         if !parse_failed {
             let mut ck = context::Checker::new(&self.asts, std::mem::take(&mut self.imports));
             ck.apply_overrides(root, overrides);
             let s = scene::build(&mut ck, root);
             ck.finish_globals(root);
+            resolved = ck.resolved.drain().map(|(_, r)| r).collect();
+            resolved.sort_by_key(|r: &context::Resolved| (r.use_span.file, r.use_span.start));
             let failed = ck.diags.iter().any(Diagnostic::is_error);
             self.diags.extend(ck.diags);
             if !failed {
@@ -278,6 +286,7 @@ impl Loader {
             diagnostics: diags,
             ast,
             scene,
+            resolved,
         }
     }
 }

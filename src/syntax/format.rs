@@ -59,6 +59,18 @@ enum Role {
     Infix,
 }
 
+/// The byte ranges of the comments of a file (for an editor's highlighting).
+pub fn comment_ranges(src: &str) -> Vec<std::ops::Range<usize>> {
+    pieces(src)
+        .iter()
+        .filter(|p| matches!(p.kind, Kind::Comment))
+        .map(|p| {
+            let at = p.text.as_ptr() as usize - src.as_ptr() as usize;
+            at..at + p.text.len()
+        })
+        .collect()
+}
+
 /// Tokens and comments in order, each with the line breaks before it.
 fn pieces(src: &str) -> Vec<Piece<'_>> {
     let mut out = vec![];
