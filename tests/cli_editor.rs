@@ -458,3 +458,23 @@ fn language_server_session() {
     let status = lsp.child.wait().expect("exited");
     assert!(status.success());
 }
+
+/// The VS Code grammar is valid JSON and highlights every keyword of the lexer.
+#[test]
+fn textmate_grammar_knows_the_keywords() {
+    let text = std::fs::read_to_string("docs/editors/vscode/syntaxes/4ds.tmLanguage.json")
+        .expect("the grammar");
+    let grammar: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    let all = grammar["patterns"].to_string();
+    for kw in [
+        "let", "fn", "object", "render", "camera", "sky", "medium", "import", "if", "else", "for",
+        "in", "true", "false", "sdf", "mod",
+    ] {
+        assert!(
+            all.contains(&format!("|{kw}|"))
+                || all.contains(&format!("({kw}|"))
+                || all.contains(&format!("|{kw})")),
+            "{kw}"
+        );
+    }
+}
