@@ -478,3 +478,64 @@ fn textmate_grammar_knows_the_keywords() {
         );
     }
 }
+
+/// `render --watch` renders, reports a broken edit without stopping, and renders the fix.
+#[test]
+fn render_watch_rerenders_on_change() {
+    use std::io::BufRead;
+    use std::time::{Duration, Instant};
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scene = |size: &str, radius: &str| {
+        format!(
+            "render {{ size = {size}  spp = 1  denoise = \"none\" }}\nobject ball {{ shape = hypersphere({radius}) }}\n"
+        )
+    };
+    std::fs::write(dir.path().join("w.4ds"), scene("8 x 6", "1")).expect("written");
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+        .current_dir(dir.path())
+        .args(["render", "--watch", "w.4ds", "-o", "w.png"])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("started");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().expect("stderr");
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stderr).lines() {
+            let Ok(line) = line else { break };
+            if tx.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    // Everything printed up to the next "watching" line.
+    let until_watching = || {
+        let deadline = Instant::now() + Duration::from_secs(60);
+        let mut seen = String::new();
+        while Instant::now() < deadline {
+            if let Ok(line) = rx.recv_timeout(Duration::from_millis(100)) {
+                seen.push_str(&line);
+                seen.push('\n');
+                if line.starts_with("watching") {
+                    return seen;
+                }
+            }
+        }
+        panic!("no `watching` line; saw:\n{seen}");
+    };
+    let size = || {
+        let img = image::open(dir.path().join("w.png")).expect("a PNG");
+        (img.width(), img.height())
+    };
+    let first = until_watching();
+    assert!(first.contains("wrote w.png"), "{first}");
+    assert_eq!(size(), (8, 6));
+    std::fs::write(dir.path().join("w.4ds"), scene("8 x 6", "-1")).expect("written");
+    let broken = until_watching();
+    assert!(broken.contains("E0301"), "{broken}");
+    std::fs::write(dir.path().join("w.4ds"), scene("10 x 4", "1")).expect("written");
+    let fixed = until_watching();
+    assert!(fixed.contains("wrote w.png"), "{fixed}");
+    assert_eq!(size(), (10, 4));
+    child.kill().expect("stopped");
+    let _ = child.wait();
+}
