@@ -79,9 +79,19 @@ pub fn run(args: FmtArgs, color: bool) -> ExitCode {
         }
         if args.check {
             changed.push(name);
-        } else if let Err(e) = hyperslice::output::write_atomic(file, out.as_bytes()) {
-            eprintln!("error: cannot write `{name}`: {e}");
-            failed = true;
+        } else {
+            // The atomic write makes a new file; it keeps the old one's permissions.
+            let permissions = std::fs::metadata(file).map(|m| m.permissions());
+            let written = hyperslice::output::write_atomic(file, out.as_bytes())
+                .map_err(|e| e.to_string())
+                .and_then(|()| match permissions {
+                    Ok(p) => std::fs::set_permissions(file, p).map_err(|e| e.to_string()),
+                    Err(_) => Ok(()),
+                });
+            if let Err(e) = written {
+                eprintln!("error: cannot write `{name}`: {e}");
+                failed = true;
+            }
         }
     }
     for name in &changed {

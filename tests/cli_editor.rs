@@ -191,9 +191,18 @@ fn fmt_check_in_place_and_stdin() {
     assert_eq!(stdout(&o), "a.4ds\n");
     let read = |f: &str| std::fs::read_to_string(dir.path().join(f)).expect("read");
     assert_eq!(read("a.4ds"), messy, "--check changed a file");
+    let mode = |f: &str| {
+        use std::os::unix::fs::PermissionsExt;
+        std::fs::metadata(dir.path().join(f))
+            .expect("metadata")
+            .permissions()
+            .mode()
+    };
+    let before = mode("a.4ds");
     let o = hyperslice(dir.path(), &["fmt", "a.4ds", "b.4ds"]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(read("a.4ds"), tidy);
+    assert_eq!(mode("a.4ds"), before, "fmt changed the file's permissions");
     assert!(
         hyperslice(dir.path(), &["fmt", "--check", "a.4ds"])
             .status
@@ -538,4 +547,32 @@ fn render_watch_rerenders_on_change() {
     assert_eq!(size(), (10, 4));
     child.kill().expect("stopped");
     let _ = child.wait();
+}
+
+/// The tutorial's scenes check, are formatted, and the first two appear whole in the text.
+#[test]
+fn tutorial_scenes_check_and_are_formatted() {
+    let tutorial = std::fs::read_to_string("docs/tutorial.md").expect("the tutorial");
+    for step in 1..=4 {
+        let path = format!("docs/tutorial/step{step}.4ds");
+        let text = std::fs::read_to_string(&path).expect("a step");
+        let c = hyperslice::Compilation::from_path(Path::new(&path));
+        assert!(
+            c.diagnostics.is_empty(),
+            "{path}: {}",
+            c.render_diagnostics(false)
+        );
+        let formatted = hyperslice::syntax::format::format(hyperslice::source::FileId(0), &text);
+        assert_eq!(
+            formatted.as_deref(),
+            Ok(text.as_str()),
+            "{path} is not formatted"
+        );
+        if step <= 2 {
+            assert!(
+                tutorial.contains(&text),
+                "docs/tutorial.md does not show {path} as it is"
+            );
+        }
+    }
 }
