@@ -576,3 +576,25 @@ fn tutorial_scenes_check_and_are_formatted() {
         }
     }
 }
+
+/// Every code block of the reference and the tutorial that is a whole scene is formatted.
+#[test]
+fn docs_snippets_are_formatted() {
+    use hyperslice::syntax::format::format;
+    for doc in ["docs/language.md", "docs/tutorial.md"] {
+        let text = std::fs::read_to_string(doc).expect("the docs");
+        let mut blocks = text.split("```").skip(1).step_by(2);
+        let mut checked = 0;
+        for block in &mut blocks {
+            // Only unlabelled blocks hold scenes; shell, TOML and Lua blocks are labelled.
+            let Some(body) = block.strip_prefix('\n') else {
+                continue;
+            };
+            if let Ok(out) = format(hyperslice::source::FileId(0), body) {
+                checked += 1;
+                assert_eq!(out, body, "{doc}: a snippet is not formatted");
+            }
+        }
+        assert!(checked > 0, "{doc}: no snippet checked");
+    }
+}

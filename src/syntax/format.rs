@@ -5,8 +5,8 @@
 //!
 //! The style:
 //! - two spaces of indentation per open bracket, and two more on a line that continues an
-//!   expression (it starts with `|>`, a binary operator or `.`, or the line before ends with
-//!   `=`, `->`, an operator or a lambda's `|p, n|`);
+//!   expression (it starts with `|>`, a binary operator, `.` or `else`, or the line before
+//!   ends with `=`, `->`, an operator or a lambda's `|p, n|`);
 //! - one space around binary operators, `=`, `->` and `|>`, after `,` and `:`, and none
 //!   inside brackets, before `(` and `[` of a call or an index, around `.` and `..`, after a
 //!   prefix `-` or `!`, or inside a lambda's bars;
@@ -252,7 +252,8 @@ fn continues(line: &Line, prev: Option<&Piece>) -> bool {
     let first = line.pieces.iter().find(|p| code(p).is_some());
     let Some(first) = first else { return false };
     let Some(t) = code(first) else { return false };
-    if is_binary(&t, first.role) {
+    // `else` on its own line belongs to the `if` before it.
+    if is_binary(&t, first.role) || t == Token::Else {
         return true;
     }
     match prev.and_then(|p| code(p).map(|t| (t, p.role))) {
@@ -491,6 +492,12 @@ mod tests {
             fmt("let a=[0,-1]-b\nlet b=2*-t"),
             "let a = [0, -1] - b\nlet b = 2 * -t\n"
         );
+    }
+
+    #[test]
+    fn else_on_its_own_line_continues_the_if() {
+        let src = "fn row(k: num) -> shape =\n  if k == 0 { hypersphere(0.3) }\n  else { hypersphere(1) }\n";
+        assert_eq!(fmt(src), src);
     }
 
     #[test]
