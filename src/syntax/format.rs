@@ -232,6 +232,10 @@ fn space(a: &Piece, b: &Piece) -> bool {
         return true;
     };
     use Token::*;
+    // `| |` (no parameters) must not become the token `||`.
+    if ta == Bar && tb == Bar {
+        return true;
+    }
     if matches!(tb, Comma | Semi | Colon | RParen | RBracket | Dot | DotDot)
         || matches!(ta, LParen | LBracket | Dot | DotDot)
         || a.role == Role::Prefix
@@ -498,6 +502,11 @@ mod tests {
     fn else_on_its_own_line_continues_the_if() {
         let src = "fn row(k: num) -> shape =\n  if k == 0 { hypersphere(0.3) }\n  else { hypersphere(1) }\n";
         assert_eq!(fmt(src), src);
+    }
+
+    #[test]
+    fn never_glues_tokens_into_others() {
+        assert_eq!(fmt("let f = | | 1"), "let f = | | 1\n");
     }
 
     #[test]
