@@ -8,7 +8,7 @@ use hyperslice::check::Resolved;
 use hyperslice::diagnostic::{Diagnostic, Severity};
 use hyperslice::scene::MathFn;
 use hyperslice::scene::builtins::{self as table, ParamSpec};
-use hyperslice::source::{FileId, Span};
+use hyperslice::source::{FileId, SourceMap, Span};
 use hyperslice::syntax::ast::{BlockKind, ItemKind, OBJECT_SETTINGS};
 use hyperslice::syntax::format;
 use hyperslice::syntax::token::{self, Token};
@@ -139,8 +139,7 @@ impl Server<'_> {
                 .unwrap_or_else(|_| PathBuf::from(uri.path()));
             let compiled = Compilation::from_text(&path, &text);
             let diags = (compiled.diagnostics.iter())
-                .filter(|d| d.primary_span().is_none_or(|s| s.file == FileId(0)))
-                .map(|d| to_lsp_diagnostic(d, &text))
+                .map(|d| to_lsp_diagnostic(d, &compiled.sources, &text))
                 .collect();
             self.publish(&uri, diags);
             self.docs.insert(uri, Doc { text, compiled });
@@ -362,11 +361,23 @@ impl Server<'_> {
     }
 }
 
-fn to_lsp_diagnostic(d: &Diagnostic, text: &str) -> lsp::Diagnostic {
-    let range = d
-        .primary_span()
-        .map_or_else(Default::default, |s| lsp_range(text, s.range()));
-    let mut message = d.message.clone();
+/// A diagnostic of the open document. One whose place is in an imported file is shown where
+/// the document points at it (the import), or at its start, naming the file.
+fn to_lsp_diagnostic(d: &Diagnostic, sources: &SourceMap, text: &str) -> lsp::Diagnostic {
+    let primary = d.primary_span();
+    let here = primary.filter(|s| s.file == FileId(0)).or_else(|| {
+        (d.labels.iter())
+            .map(|l| l.span)
+            .find(|s| s.file == FileId(0))
+    });
+    let range = here.map_or_else(Default::default, |s| lsp_range(text, s.range()));
+    let mut message = match primary {
+        Some(p) if p.file != FileId(0) => {
+            let (line, col) = sources.line_col(p.file, p.start as usize);
+            format!("{}:{line}:{col}: {}", sources.get(p.file).name, d.message)
+        }
+        _ => d.message.clone(),
+    };
     if let Some(l) = d.labels.first().filter(|l| !l.message.is_empty()) {
         message.push_str(&format!("\n{}", l.message));
     }

@@ -598,3 +598,63 @@ fn docs_snippets_are_formatted() {
         assert!(checked > 0, "{doc}: no snippet checked");
     }
 }
+
+/// A mistake in an imported file shows on the document's `import`, imports resolving
+/// relative to the document.
+#[test]
+fn language_server_reports_imported_files_at_the_import() {
+    use serde_json::json;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let root = dir.path().canonicalize().expect("a path");
+    std::fs::create_dir(root.join("lib")).expect("a folder");
+    std::fs::write(
+        root.join("lib/shapes.4ds"),
+        "object stray { shape = hypersphere(1) }\n",
+    )
+    .expect("written");
+    let path = root.join("scene.4ds");
+    let text = "import \"lib/shapes.4ds\"\nobject ball { shape = hypersphere(1) }\n";
+    let uri = format!("file://{}", path.display());
+    let mut lsp = Lsp::start();
+    lsp.request(
+        1,
+        "initialize",
+        json!({"capabilities": {}, "processId": null, "rootUri": null}),
+    );
+    lsp.notify("initialized", json!({}));
+    lsp.notify(
+        "textDocument/didOpen",
+        json!({"textDocument": {"uri": uri, "languageId": "4ds", "version": 1, "text": text}}),
+    );
+    let diags = loop {
+        let msg = lsp.read();
+        if msg["method"] == "textDocument/publishDiagnostics" {
+            break msg["params"]["diagnostics"].clone();
+        }
+    };
+    assert_eq!(diags[0]["code"], "E0504", "{diags}");
+    assert_eq!(
+        diags[0]["range"]["start"],
+        json!({"line": 0, "character": 7})
+    );
+    assert!(
+        diags[0]["message"]
+            .as_str()
+            .unwrap_or("")
+            .contains("lib/shapes.4ds:1:1: "),
+        "{diags}"
+    );
+    // Go to definition on the path opens the imported file.
+    let def = lsp.request(
+        2,
+        "textDocument/definition",
+        json!({"textDocument": {"uri": uri}, "position": {"line": 0, "character": 10}}),
+    );
+    assert_eq!(
+        def["uri"],
+        format!("file://{}", root.join("lib/shapes.4ds").display())
+    );
+    lsp.request(3, "shutdown", json!(null));
+    lsp.notify("exit", json!(null));
+    assert!(lsp.child.wait().expect("exited").success());
+}
