@@ -382,6 +382,13 @@ fn language_server_session() {
         .unwrap_or("")
         .to_string();
     assert!(shown.contains("radius: num = 0.5"), "{hover}");
+    // Hover on a definition shows it too.
+    let hover = lsp.request(11, "textDocument/hover", at(0, 6));
+    let shown = hover["contents"]["value"]
+        .as_str()
+        .unwrap_or("")
+        .to_string();
+    assert!(shown.contains("radius: num = 0.5"), "{hover}");
     // Hover on a builtin: its signature from the table and its line from the reference.
     let hover = lsp.request(3, "textDocument/hover", at(1, 25));
     let shown = hover["contents"]["value"]

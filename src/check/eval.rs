@@ -120,6 +120,8 @@ impl Checker<'_> {
                 for l in lets {
                     let v = self.eval(file, &env, l.value);
                     let v = self.annotate(file, l, v);
+                    // Definitions resolve to themselves, for hovers on them.
+                    self.record_use(&l.name, l.name.span, &v);
                     let (e, s) = env.bind(&l.name.name, v, l.name.span);
                     env = e;
                     scopes.push(s);
@@ -480,6 +482,7 @@ impl Checker<'_> {
                 } else {
                     let mut inner = env.clone();
                     for (p, a) in params.iter().zip(args) {
+                        self.record_use(p, p.span, &a.value);
                         inner = inner.bind(&p.name, a.value, p.span).0;
                     }
                     self.eval(*file, &inner, *body)
@@ -525,6 +528,7 @@ impl Checker<'_> {
                 ok = false;
                 continue;
             }
+            self.record_use(&p.name, p.name.span, &v);
             let (e, s) = env.bind(&p.name.name, v, p.name.span);
             env = e;
             scopes.push(s);
@@ -689,6 +693,7 @@ impl Checker<'_> {
         let mut out = Vec::with_capacity(items.len());
         let mut used = false;
         for item in items {
+            self.record_use(var, var.span, &item);
             let (inner, scope) = env.bind(&var.name, item, var.span);
             let v = self.eval(file, &inner, body);
             used |= scope.used.get();
