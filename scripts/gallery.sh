@@ -21,7 +21,7 @@ duocylinder|duocylinder(0.6, 0.6) \|> rotate(xw, 25deg) \|> rotate(yw, 25deg)|di
 cell5|cell5(1) \|> rotate(xw, 25deg)|diffuse(#d05030)|the 5-cell (4-simplex)
 cell16|cell16(1) \|> rotate(xw, 25deg)|diffuse(#d05030)|the 16-cell (cross-polytope)
 cell24|cell24(0.9) \|> rotate(xw, 25deg)|diffuse(#d05030)|the 24-cell
-sdf|sdf \|p\| length(vec4(length(vec4(p.x, p.y, 0, 0)) - 0.6, p.z, p.w, 0)) - 0.2|diffuse(#d05030)|a custom distance function: a thickened circle
+sdf|sdf \|p\| length(vec4(length(vec4(p.x, p.y, 0, 0)) - 0.6, p.z, p.w, 0)) - 0.3|diffuse(#d05030)|a custom distance function: a thickened circle
 union|union(hypersphere(0.5) \|> translate([-0.45, 0, 0, 0]), hyperbox(0.4) \|> translate([0.45, 0, 0, 0]), smooth: 0.15)|diffuse(#d05030)|both shapes, blended where they meet
 intersect|intersect(hypersphere(0.8), hyperbox(0.6))|diffuse(#d05030)|where both shapes are
 subtract|subtract(hyperbox(0.6), hypersphere(0.75))|diffuse(#d05030)|the first shape with the second cut away
