@@ -129,7 +129,7 @@ impl BenchArgs {
 }
 
 pub fn run(args: BenchArgs, color: bool) -> ExitCode {
-    match crate::compile(&args.file, color) {
+    match crate::compile(&args.file, &crate::SceneArgs::default(), color) {
         Some(scene) => crate::finish(bench(&args, &scene)),
         None => ExitCode::FAILURE,
     }

@@ -2,8 +2,8 @@
 //! against a file written earlier (a snapshot test for users without Rust).
 
 use clap::{Args, ValueEnum};
+use hyperslice::At;
 use hyperslice::output;
-use hyperslice::{At, Compilation};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
@@ -26,6 +26,8 @@ pub struct CompileArgs {
     /// compiled scene changed.
     #[arg(long, value_name = "FILE")]
     check: Option<PathBuf>,
+    #[command(flatten)]
+    scene: crate::SceneArgs,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -41,8 +43,8 @@ enum Emit {
 }
 
 pub fn run(args: CompileArgs, color: bool) -> ExitCode {
-    let c = Compilation::from_path(&args.file);
-    eprint!("{}", c.render_diagnostics(color));
+    let c = args.scene.compile(&args.file);
+    args.scene.report(&c, color);
     if c.has_errors() {
         return ExitCode::FAILURE;
     }

@@ -90,6 +90,22 @@ impl Diagnostic {
             Severity::Warning => ReportKind::Warning,
         };
         let mut out = Vec::new();
+        // Overlong lines are echoed only up to a little past their labels; spans move with the
+        // cut text.
+        let clips: Vec<(crate::source::FileId, Clip)> = sources
+            .files()
+            .map(|(id, f)| {
+                let starts: Vec<usize> = (self.labels.iter())
+                    .filter(|l| l.span.file == id)
+                    .map(|l| l.span.start as usize)
+                    .collect();
+                (id, Clip::new(&f.text, &starts))
+            })
+            .collect();
+        let clip = |span: Span| {
+            let c = &clips[span.file.0 as usize].1;
+            c.map(span.start as usize, false)..c.map(span.end as usize, true)
+        };
         match self.primary_span() {
             Some(primary) => {
                 let config = Config::new()
@@ -100,13 +116,12 @@ impl Diagnostic {
                     } else {
                         CharSet::Ascii
                     });
-                let mut report = Report::build(kind, (name(primary), primary.range()))
+                let mut report = Report::build(kind, (name(primary), clip(primary)))
                     .with_config(config)
                     .with_code(self.code)
                     .with_message(&self.message);
                 for (i, l) in self.labels.iter().enumerate() {
-                    let mut label =
-                        ALabel::new((name(l.span), l.span.range())).with_order(i as i32);
+                    let mut label = ALabel::new((name(l.span), clip(l.span))).with_order(i as i32);
                     if !l.message.is_empty() {
                         label = label.with_message(&l.message);
                     }
@@ -129,7 +144,7 @@ impl Diagnostic {
                 let cache = ariadne::sources(
                     sources
                         .files()
-                        .map(|(_, f)| (f.name.clone(), f.text.clone())),
+                        .map(|(id, f)| (f.name.clone(), clips[id.0 as usize].1.apply(&f.text))),
                 );
                 if report.finish().write(cache, &mut out).is_err() {
                     return self.to_string();
@@ -138,6 +153,54 @@ impl Diagnostic {
             }
             None => format!("{self}\n"),
         }
+    }
+}
+
+impl Diagnostic {
+    /// The machine-readable form `--message-format json` prints, one object per line like
+    /// cargo's: severity, code, message, where (1-based line and column in characters, the
+    /// end too, and the byte span), every label, notes and help.
+    pub fn to_json(&self, sources: &SourceMap) -> serde_json::Value {
+        let place = |span: Span| {
+            let (line, column) = sources.line_col(span.file, span.start as usize);
+            let (end_line, end_column) = sources.line_col(span.file, span.end as usize);
+            serde_json::json!({
+                "file": sources.get(span.file).name,
+                "line": line,
+                "column": column,
+                "end_line": end_line,
+                "end_column": end_column,
+                "byte_start": span.start,
+                "byte_end": span.end,
+            })
+        };
+        let labels: Vec<serde_json::Value> = (self.labels.iter().enumerate())
+            .map(|(i, l)| {
+                let mut v = place(l.span);
+                v["message"] = l.message.clone().into();
+                v["primary"] = (i == 0).into();
+                v
+            })
+            .collect();
+        let mut v = match self.primary_span() {
+            Some(span) => place(span),
+            None => serde_json::json!({
+                "file": null, "line": null, "column": null, "end_line": null,
+                "end_column": null, "byte_start": null, "byte_end": null,
+            }),
+        };
+        v["type"] = "diagnostic".into();
+        v["severity"] = match self.severity {
+            Severity::Error => "error",
+            Severity::Warning => "warning",
+        }
+        .into();
+        v["code"] = self.code.into();
+        v["message"] = self.message.clone().into();
+        v["labels"] = labels.into();
+        v["notes"] = self.notes.clone().into();
+        v["help"] = self.help.clone().into();
+        v
     }
 }
 
@@ -156,6 +219,73 @@ impl fmt::Display for Diagnostic {
             write!(f, "\n  help: {h}")?;
         }
         Ok(())
+    }
+}
+
+/// Longest stretch of a line a report echoes past the last label that starts on it.
+const ECHO_PAST_LABEL: usize = 80;
+/// Lines up to this long are echoed whole.
+const MAX_ECHOED_LINE: usize = 200;
+
+/// Where overlong lines of one file are cut for a report: each cut byte range is echoed as
+/// `...`. A 300 KB line would otherwise be printed once per diagnostic.
+struct Clip {
+    cuts: Vec<(usize, usize)>,
+}
+
+impl Clip {
+    fn new(text: &str, label_starts: &[usize]) -> Clip {
+        let mut cuts = vec![];
+        if label_starts.is_empty() {
+            return Clip { cuts };
+        }
+        let mut start = 0;
+        for line in text.split_inclusive(crate::source::LINE_BREAKS) {
+            let body = line.trim_end_matches(crate::source::LINE_BREAKS);
+            let end = start + body.len();
+            if body.len() > MAX_ECHOED_LINE {
+                let last = (label_starts.iter())
+                    .filter(|s| (start..=end).contains(*s))
+                    .max()
+                    .map_or(start, |s| *s);
+                let mut keep = (last + ECHO_PAST_LABEL).max(start + MAX_ECHOED_LINE);
+                while keep < end && !text.is_char_boundary(keep) {
+                    keep += 1;
+                }
+                if keep + 3 < end {
+                    cuts.push((keep, end));
+                }
+            }
+            start += line.len();
+        }
+        Clip { cuts }
+    }
+
+    /// The text with every cut replaced by `...`.
+    fn apply(&self, text: &str) -> String {
+        let mut out = String::with_capacity(text.len().min(1 << 16));
+        let mut at = 0;
+        for (a, b) in &self.cuts {
+            out.push_str(&text[at..*a]);
+            out.push_str("...");
+            at = *b;
+        }
+        out.push_str(&text[at..]);
+        out
+    }
+
+    /// Where byte `p` of the text is in the cut text; inside a cut, a span's start goes to the
+    /// `...` and its end past it.
+    fn map(&self, p: usize, is_end: bool) -> usize {
+        let mut shift = 0;
+        for (a, b) in &self.cuts {
+            if p >= *b {
+                shift += b - a - 3;
+            } else if p > *a {
+                return a - shift + if is_end { 3 } else { 0 };
+            }
+        }
+        p - shift
     }
 }
 

@@ -54,6 +54,7 @@
 
 #[doc(hidden)]
 pub mod check;
+pub mod codes;
 pub mod compile;
 #[doc(hidden)]
 pub mod denoise;
@@ -126,6 +127,8 @@ pub struct Compilation {
     pub diagnostics: Vec<Diagnostic>,
     pub ast: syntax::ast::Ast,
     pub scene: Option<scene::Scene>,
+    /// Every name use resolved to its definition, with its type: for editors.
+    pub resolved: Vec<check::Resolved>,
 }
 
 impl From<check::Checked> for Compilation {
@@ -135,6 +138,7 @@ impl From<check::Checked> for Compilation {
             diagnostics: c.diagnostics,
             ast: c.ast,
             scene: c.scene,
+            resolved: c.resolved,
         }
     }
 }
@@ -142,7 +146,19 @@ impl From<check::Checked> for Compilation {
 impl Compilation {
     /// Compile a file from disk; imports resolve relative to it.
     pub fn from_path(path: &Path) -> Compilation {
-        check::compile_path(path).into()
+        Self::from_path_with(path, &[])
+    }
+
+    /// Compile a file with `-D NAME=VALUE` overrides of its top-level `let`s: each value is a
+    /// constant expression, checked against the type of the value it replaces.
+    pub fn from_path_with(path: &Path, defines: &[String]) -> Compilation {
+        check::compile_path(path, defines).into()
+    }
+
+    /// Compile the unsaved text of the file at `path` (an editor's buffer); imports resolve
+    /// relative to `path`.
+    pub fn from_text(path: &Path, text: &str) -> Compilation {
+        check::compile_text(path, text).into()
     }
 
     /// Compile text held in memory; imports resolve relative to the current directory.

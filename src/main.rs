@@ -9,6 +9,8 @@ use std::process::ExitCode;
 
 mod bench_command;
 mod compile_command;
+mod fmt_command;
+mod lsp_command;
 mod render_command;
 
 #[derive(Parser)]
@@ -32,12 +34,52 @@ enum ColorChoice {
     Never,
 }
 
+/// What every command that compiles a scene takes: overrides and the diagnostics' format.
+#[derive(clap::Args, Clone, Default)]
+pub struct SceneArgs {
+    /// Override a top-level `let` of the scene: NAME=VALUE, with VALUE a constant expression of
+    /// the same type (repeat for several).
+    #[arg(short = 'D', value_name = "NAME=VALUE")]
+    pub define: Vec<String>,
+    /// Diagnostics as reports with the source (human), or as one JSON object per line on
+    /// standard output (json), like cargo's.
+    #[arg(long, value_enum, default_value_t)]
+    pub message_format: MessageFormat,
+}
+
+#[derive(Clone, Copy, Default, PartialEq, Eq, ValueEnum)]
+pub enum MessageFormat {
+    #[default]
+    Human,
+    Json,
+}
+
+impl SceneArgs {
+    pub fn compile(&self, file: &Path) -> Compilation {
+        Compilation::from_path_with(file, &self.define)
+    }
+
+    /// Print the diagnostics of `c` in the chosen format.
+    pub fn report(&self, c: &Compilation, color: bool) {
+        match self.message_format {
+            MessageFormat::Human => eprint!("{}", c.render_diagnostics(color)),
+            MessageFormat::Json => {
+                for d in &c.diagnostics {
+                    println!("{}", d.to_json(&c.sources));
+                }
+            }
+        }
+    }
+}
+
 #[derive(Subcommand)]
 enum Command {
     /// Parse and type-check scenes; print diagnostics. Exit 1 if any has an error.
     Check {
         #[arg(required = true)]
         files: Vec<PathBuf>,
+        #[command(flatten)]
+        scene: SceneArgs,
     },
     /// Render a scene to an animated GIF, PNG frames or EXR frames.
     Render(render_command::RenderArgs),
@@ -46,13 +88,20 @@ enum Command {
     Bench(bench_command::BenchArgs),
     /// Compile a scene and print one stage of it, write it to a file, or check it against one.
     Compile(compile_command::CompileArgs),
+    /// Format scenes in place (`--check`: only list those that would change; `-`: standard
+    /// input to standard output).
+    Fmt(fmt_command::FmtArgs),
+    /// Run the language server over standard input and output (for editors).
+    Lsp,
+    /// Explain a diagnostic code (such as E0201) with an example and its fix.
+    Explain { code: String },
 }
 
 /// Compile `file` for a command that renders it and print its diagnostics (in colour when
 /// `color`); the scene when it compiled.
-fn compile(file: &Path, color: bool) -> Option<Scene> {
-    let c = Compilation::from_path(file);
-    eprint!("{}", c.render_diagnostics(color));
+fn compile(file: &Path, args: &SceneArgs, color: bool) -> Option<Scene> {
+    let c = args.compile(file);
+    args.report(&c, color);
     c.scene
 }
 
@@ -77,11 +126,11 @@ fn main() -> ExitCode {
         ColorChoice::Never => false,
     };
     match cli.command {
-        Command::Check { files } => {
+        Command::Check { files, scene: args } => {
             let mut failed = false;
             for file in &files {
-                let c = Compilation::from_path(file);
-                eprint!("{}", c.render_diagnostics(color));
+                let c = args.compile(file);
+                args.report(&c, color);
                 if c.has_errors() {
                     failed = true;
                 } else if let Some(scene) = &c.scene {
@@ -118,5 +167,21 @@ fn main() -> ExitCode {
         Command::Render(args) => render_command::run(args, color),
         Command::Bench(args) => bench_command::run(args, color),
         Command::Compile(args) => compile_command::run(args, color),
+        Command::Fmt(args) => fmt_command::run(args, color),
+        Command::Lsp => lsp_command::run(),
+        Command::Explain { code } => match hyperslice::codes::find(&code) {
+            Some(c) => {
+                print!("{}", hyperslice::codes::explain(c));
+                ExitCode::SUCCESS
+            }
+            None => {
+                let known: Vec<&str> = hyperslice::codes::CODES.iter().map(|c| c.code).collect();
+                eprintln!(
+                    "error: no diagnostic code `{code}`; the codes are {}",
+                    known.join(", ")
+                );
+                ExitCode::FAILURE
+            }
+        },
     }
 }

@@ -70,6 +70,13 @@ pub struct RenderArgs {
     /// Sobol sequence per pixel.
     #[arg(long, value_enum, default_value_t)]
     sampler: SamplerKind,
+    /// Re-check and re-render whenever the scene or a file it imports changes, printing
+    /// diagnostics instead of stopping on errors. Renders at `--quality draft` unless a
+    /// quality is given.
+    #[arg(long)]
+    watch: bool,
+    #[command(flatten)]
+    scene: crate::SceneArgs,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
@@ -142,6 +149,9 @@ fn parse_positive(s: &str) -> Result<f64, String> {
 impl RenderArgs {
     /// Apply the overrides: the preset first, then explicit settings.
     fn apply(&self, r: &mut RenderSettings) {
+        if self.watch && self.quality.is_none() {
+            Quality::Draft.apply(r);
+        }
         if let Some(q) = self.quality {
             match q {
                 QualityArg::Draft => Quality::Draft,
@@ -171,7 +181,10 @@ pub(crate) fn extent(r: &RenderSettings) -> String {
 }
 
 pub fn run(args: RenderArgs, color: bool) -> ExitCode {
-    match crate::compile(&args.file, color) {
+    if args.watch {
+        return watch(&args, color);
+    }
+    match crate::compile(&args.file, &args.scene, color) {
         Some(scene) => crate::finish(render(&args, scene)),
         None => ExitCode::FAILURE,
     }
@@ -266,6 +279,28 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     if let Some(psnr) = written.gif_psnr {
         eprintln!("GIF quantisation: PSNR {psnr:.1} dB against the 8-bit frames");
     }
+    if args.scene.message_format == crate::MessageFormat::Json {
+        let stats = serde_json::json!({
+            "type": "render-stats",
+            "file": args.file.display().to_string(),
+            "width": r.width,
+            "height": r.height,
+            "frames": r.frames,
+            "spp": r.spp,
+            "seconds": secs,
+            "samples": s.samples,
+            "samples_per_second": s.samples as f64 / secs.max(1e-9),
+            "samples_per_pixel": s.samples as f64 / pixels,
+            "distance_evaluations": s.evaluations,
+            "out_of_steps": s.out_of_steps,
+            "dropped": s.dropped,
+            "denoise": r.denoise.name(),
+            "denoise_seconds": rendered.denoise_time.as_secs_f64(),
+            "gif_psnr": written.gif_psnr,
+            "files": written.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
+        });
+        println!("{stats}");
+    }
     match written.files.as_slice() {
         [one] => eprintln!("wrote {}", one.display()),
         files => eprintln!(
@@ -276,6 +311,71 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         ),
     }
     Ok(())
+}
+
+/// `render --watch`: check and render, then wait for a change to any file the scene was read
+/// from, and again. Errors are printed and waited out; only a broken watcher ends it.
+fn watch(args: &RenderArgs, color: bool) -> ExitCode {
+    use notify::Watcher;
+    let (tx, rx) = std::sync::mpsc::channel();
+    let mut watcher = match notify::recommended_watcher(tx) {
+        Ok(w) => w,
+        Err(e) => {
+            eprintln!("error: cannot watch files: {e}");
+            return ExitCode::FAILURE;
+        }
+    };
+    let canon = |p: &Path| std::fs::canonicalize(p).unwrap_or_else(|_| p.to_path_buf());
+    loop {
+        let c = args.scene.compile(&args.file);
+        args.scene.report(&c, color);
+        if let Some(scene) = c.scene.clone().filter(|_| !c.has_errors())
+            && let Err(e) = render(args, scene)
+        {
+            eprintln!("error: {e}");
+        }
+        // The scene and its imports; their folders are watched, since editors often save by
+        // replacing a file.
+        let mut files: Vec<PathBuf> = (c.sources.files())
+            .filter_map(|(_, f)| f.path.as_deref().map(canon))
+            .collect();
+        files.push(canon(&args.file));
+        files.sort();
+        files.dedup();
+        let dirs: std::collections::BTreeSet<PathBuf> = (files.iter())
+            .filter_map(|f| f.parent().map(Path::to_path_buf))
+            .collect();
+        for d in &dirs {
+            if let Err(e) = watcher.watch(d, notify::RecursiveMode::NonRecursive) {
+                eprintln!("error: cannot watch `{}`: {e}", d.display());
+                return ExitCode::FAILURE;
+            }
+        }
+        eprintln!(
+            "watching {} file{} for changes (Ctrl-C stops)",
+            files.len(),
+            if files.len() == 1 { "" } else { "s" }
+        );
+        loop {
+            match rx.recv() {
+                Ok(Ok(event))
+                    if !event.kind.is_access()
+                        && event.paths.iter().any(|p| files.contains(&canon(p))) =>
+                {
+                    break;
+                }
+                Ok(_) => {}
+                Err(_) => return ExitCode::FAILURE,
+            }
+        }
+        // One save is often several events: let them settle.
+        std::thread::sleep(Duration::from_millis(150));
+        while rx.try_recv().is_ok() {}
+        for d in &dirs {
+            let _ = watcher.unwatch(d);
+        }
+        eprintln!("changed; checking again");
+    }
 }
 
 fn default_output(scene: &Path) -> PathBuf {

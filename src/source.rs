@@ -40,6 +40,11 @@ impl Span {
     }
 }
 
+/// The characters that end a line: the set ariadne counts lines by (a CR LF pair is one break),
+/// so the lexer (comments and strings end at each), the reports and `--message-format json`
+/// agree on every line number.
+pub const LINE_BREAKS: [char; 7] = ['\r', '\n', '\x0B', '\x0C', '\u{85}', '\u{2028}', '\u{2029}'];
+
 /// One loaded file: its display name, its directory for relative imports, and its text.
 #[derive(Debug, Clone)]
 pub struct SourceFile {
@@ -89,6 +94,27 @@ impl SourceMap {
         self.files()
             .find(|(_, f)| f.path.as_deref() == Some(path))
             .map(|(id, _)| id)
+    }
+
+    /// The 1-based line and column (in characters) of a byte offset of `file`.
+    pub fn line_col(&self, file: FileId, offset: usize) -> (usize, usize) {
+        let text = &self.get(file).text;
+        let offset = offset.min(text.len());
+        let mut line = 1;
+        let mut start = 0;
+        let mut chars = text[..offset].char_indices().peekable();
+        while let Some((i, c)) = chars.next() {
+            if LINE_BREAKS.contains(&c) {
+                // CR LF is one break.
+                if c == '\r' && chars.peek().is_some_and(|(_, n)| *n == '\n') {
+                    continue;
+                }
+                line += 1;
+                start = i + c.len_utf8();
+            }
+        }
+        let col = text.get(start..offset).map_or(0, |s| s.chars().count()) + 1;
+        (line, col)
     }
 
     /// The text under a span.

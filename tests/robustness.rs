@@ -545,3 +545,40 @@ fn cli_rejects_bad_usage() {
     let out = hyperslice(&["compile", "examples/d4_packing.4ds", "--emit", "pixels"]);
     assert!(!out.status.success(), "{}", text(&out));
 }
+
+/// Formatting what parses keeps the syntax tree and is stable; nothing makes it panic.
+fn format_keeps_the_tree(text: &str) -> Result<(), String> {
+    use hyperslice::syntax::format::format;
+    let Ok(out) = format(hyperslice::source::FileId(0), text) else {
+        return Ok(());
+    };
+    let before = Compilation::from_source("a.4ds", text).emit_ast();
+    let after = Compilation::from_source("a.4ds", &out).emit_ast();
+    if before != after {
+        return Err(format!("the tree changed:\n{text:?}\n->\n{out:?}"));
+    }
+    match format(hyperslice::source::FileId(0), &out) {
+        Ok(again) if again == out => Ok(()),
+        other => Err(format!("not idempotent:\n{out:?}\n->\n{other:?}")),
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    #[test]
+    fn formatting_mutants_keeps_their_tree(
+        seed in any::<Index>(),
+        mutations in prop::collection::vec(mutation(), 0..3),
+    ) {
+        let text = mutate(seed.get::<String>(&SEEDS), &mutations);
+        let r = format_keeps_the_tree(&text);
+        prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+    }
+
+    #[test]
+    fn formatting_token_soup_keeps_its_tree(text in token_soup()) {
+        let r = format_keeps_the_tree(&text);
+        prop_assert!(r.is_ok(), "{}", r.unwrap_err());
+    }
+}

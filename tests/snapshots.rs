@@ -156,3 +156,77 @@ fn every_code_is_covered() {
         .collect();
     assert!(missing.is_empty(), "no error file produces {missing:?}");
 }
+
+/// A call with 100,000 extra arguments on one 300 KB line: one error for all of them, and the
+/// line echoed only up to a little past the labels.
+#[test]
+fn many_extra_arguments_on_one_line() {
+    let source = format!(
+        "object a {{ shape = hypersphere(1{}) }}\n",
+        ", 1".repeat(100_000)
+    );
+    let c = Compilation::from_source("many_arguments.4ds", &source);
+    let rendered = c.render_diagnostics(false);
+    assert_eq!(c.diagnostics.len(), 1, "{rendered}");
+    assert!(rendered.len() < 4_000, "{} bytes echoed", rendered.len());
+    insta::assert_snapshot!(rendered);
+}
+
+/// A list literal is bound by the same 100,000-item limit as a range.
+#[test]
+fn list_literal_too_large() {
+    let source = format!(
+        "let xs = [{}]\nobject a {{ shape = hypersphere(len(xs)) }}\n",
+        vec!["1"; 100_001].join(", ")
+    );
+    let c = Compilation::from_source("big_list.4ds", &source);
+    let codes: Vec<&str> = c.diagnostics.iter().map(|d| d.code).collect();
+    assert_eq!(codes, ["E0402"]);
+    insta::assert_snapshot!(c.render_diagnostics(false));
+}
+
+/// `-D NAME=VALUE` replaces a top-level `let`: the compiled scene changes, and a grey `num`
+/// stands for a colour as it does in the scene.
+#[test]
+fn defines_override_lets() {
+    let path = Path::new("tests/in/overrides/scene.4ds");
+    let defines = ["radius=0.5".to_string(), "tint=0.25 * 2".to_string()];
+    let c = Compilation::from_path_with(path, &defines);
+    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+    let scene = c.emit_scene().unwrap_or_default();
+    assert!(scene.contains("hypersphere(radius: 0.5)"), "{scene}");
+    let plain = Compilation::from_path(path)
+        .emit_scene()
+        .unwrap_or_default();
+    assert!(plain.contains("hypersphere(radius: 1)"), "{plain}");
+}
+
+/// Every way a `-D` can be wrong is a diagnostic pointing into the command-line text.
+#[test]
+fn define_diagnostics() {
+    let path = Path::new("tests/in/overrides/scene.4ds");
+    let mut out = String::new();
+    for define in [
+        "radius=true",
+        "raduis=2",
+        "f=1",
+        "radius",
+        "radius=2 *",
+        "radius=t",
+        "radius=[1, 2]",
+    ] {
+        let c = Compilation::from_path_with(path, &[define.to_string()]);
+        assert!(c.has_errors(), "-D {define} should be an error");
+        assert!(
+            c.diagnostics
+                .iter()
+                .all(|d| d
+                    .primary_span()
+                    .is_some_and(|s| c.sources.get(s.file).name == "-D")),
+            "-D {define}: {}",
+            c.render_diagnostics(false)
+        );
+        out.push_str(&format!("$ -D {define}\n{}", c.render_diagnostics(false)));
+    }
+    insta::assert_snapshot!(out);
+}

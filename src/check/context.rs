@@ -36,9 +36,32 @@ pub struct Global {
     pub kind: GlobalKind,
     pub(super) state: GlobalState,
     pub used: bool,
+    /// A `-D NAME=VALUE` that replaces this `let`'s value.
+    pub(super) overridden: Option<Override>,
+}
+
+/// `-D NAME=VALUE`: the value's expression lives in a source file of its own.
+#[derive(Clone)]
+pub struct Override {
+    pub name: Ident,
+    pub file: FileId,
+    pub value: ExprId,
+}
+
+/// A name resolved to its definition, with the type (and the value, for a constant) it had:
+/// what an editor shows on hover and jumps to.
+#[derive(Clone, Debug)]
+pub struct Resolved {
+    pub name: String,
+    pub use_span: Span,
+    pub def_span: Span,
+    pub ty: String,
+    pub value: Option<String>,
 }
 
 pub struct Checker<'a> {
+    /// Every name use resolved so far, by where it is (the first evaluation wins).
+    pub resolved: HashMap<(FileId, u32), Resolved>,
     pub(super) asts: &'a [Ast],
     pub diags: Vec<Diagnostic>,
     pub fields: Fields,
@@ -48,10 +71,13 @@ pub struct Checker<'a> {
     pub(super) call_depth: usize,
     pub(super) work: usize,
     pub(super) aborted: bool,
+    /// Set once a runaway recursion is reported, until the outermost call returns.
+    pub(super) recursion_reported: bool,
 }
 impl<'a> Checker<'a> {
     pub fn new(asts: &'a [Ast], imports: Vec<Vec<FileId>>) -> Self {
         let mut ck = Checker {
+            resolved: HashMap::new(),
             asts,
             diags: vec![],
             fields: Fields::default(),
@@ -61,6 +87,7 @@ impl<'a> Checker<'a> {
             call_depth: 0,
             work: 0,
             aborted: false,
+            recursion_reported: false,
         };
         for (f, ast) in asts.iter().enumerate() {
             for item in &ast.items {
@@ -82,10 +109,65 @@ impl<'a> Checker<'a> {
                     kind,
                     state: GlobalState::Pending,
                     used: false,
+                    overridden: None,
                 });
             }
         }
         ck
+    }
+
+    /// Attach each `-D` override to the root file's `let` it names, or report it.
+    pub fn apply_overrides(&mut self, root: FileId, overrides: Vec<Override>) {
+        for o in overrides {
+            let found = self.file_globals[root.0 as usize]
+                .get(&o.name.name)
+                .copied();
+            match found {
+                Some(g) if matches!(self.globals[g].kind, GlobalKind::Let(_)) => {
+                    self.globals[g].overridden = Some(o);
+                }
+                _ => {
+                    let lets: Vec<&str> = (self.globals.iter())
+                        .filter(|g| g.file == root && matches!(g.kind, GlobalKind::Let(_)))
+                        .map(|g| g.name.name.as_str())
+                        .collect();
+                    let what = if found.is_some() {
+                        "is a function, not a `let`"
+                    } else {
+                        "is not a top-level `let` of the scene"
+                    };
+                    let hint = did_you_mean(&o.name.name, lets.iter().copied()).or_else(|| {
+                        Some(if lets.is_empty() {
+                            "the scene has no top-level `let` to override".to_string()
+                        } else {
+                            let lets: Vec<String> = lets.iter().map(|l| format!("`{l}`")).collect();
+                            format!("the scene's top-level `let`s are {}", lets.join(", "))
+                        })
+                    });
+                    self.error(
+                        Diagnostic::error("E0101", format!("`-D {}`: no such `let`", o.name.name))
+                            .label(o.name.span, format!("`{}` {what}", o.name.name))
+                            .note("`-D NAME=VALUE` replaces the value of a top-level `let`")
+                            .maybe_help(hint),
+                    );
+                }
+            }
+        }
+    }
+
+    pub fn record_use(&mut self, name: &Ident, def_span: Span, v: &Value) {
+        if self.aborted {
+            return;
+        }
+        self.resolved
+            .entry((name.span.file, name.span.start))
+            .or_insert_with(|| Resolved {
+                name: name.name.clone(),
+                use_span: name.span,
+                def_span,
+                ty: v.ty().to_string(),
+                value: v.describe(),
+            });
     }
 
     pub fn ast(&self, file: FileId) -> &'a Ast {
@@ -202,6 +284,8 @@ impl<'a> Checker<'a> {
         let mut ok = true;
         let mut next = 0;
         let mut seen_named = false;
+        let positional = args.iter().filter(|a| a.name.is_none()).count();
+        let mut extra_reported = false;
         for a in args {
             match &a.name {
                 None if seen_named => {
@@ -216,10 +300,19 @@ impl<'a> Checker<'a> {
                     slots[next] = Some(a);
                     next += 1;
                 }
+                // One report for all the extra arguments of a call, at the first.
+                None if extra_reported => {}
                 None => {
+                    extra_reported = true;
+                    let extra = positional.saturating_sub(params.len());
+                    let what = if extra == 1 {
+                        "this argument is extra".to_string()
+                    } else {
+                        format!("this and {} more arguments are extra", extra - 1)
+                    };
                     self.error(
                         Diagnostic::error("E0202", format!("too many arguments to `{fname}`"))
-                            .label(a.span, "this argument is extra")
+                            .label(a.span, what)
                             .label(
                                 call,
                                 format!(

@@ -59,16 +59,18 @@ impl Checker<'_> {
                     value: first,
                     span: self.span(file, *lhs),
                 };
+                // A problem with the call is reported at the call after `|>`, not the chain.
+                let rspan = self.span(file, *rhs);
                 match self.ast(file).expr(*rhs) {
                     Expr::Call { callee, args } => {
                         let f = self.eval(file, env, *callee);
                         let mut argv = vec![first];
                         argv.extend(self.eval_args(file, env, args));
-                        self.call(&f, argv, span, self.span(file, *callee))
+                        self.call(&f, argv, rspan, self.span(file, *callee))
                     }
                     _ => {
                         let f = self.eval(file, env, *rhs);
-                        self.call(&f, vec![first], span, self.span(file, *rhs))
+                        self.call(&f, vec![first], rspan, rspan)
                     }
                 }
             }
@@ -99,6 +101,9 @@ impl Checker<'_> {
                 env: env.clone(),
             })),
             Expr::Sdf { param, body } => {
+                if let Some(d) = self.pipe_into_sdf(file, *body) {
+                    return self.error(d);
+                }
                 let p = self.field(FieldOp::Input(Input::P), Type::Vec4);
                 let (inner, _) = env.bind(&param.name, p, param.span);
                 let d = self.eval(file, &inner, *body);
@@ -115,6 +120,8 @@ impl Checker<'_> {
                 for l in lets {
                     let v = self.eval(file, &env, l.value);
                     let v = self.annotate(file, l, v);
+                    // Definitions resolve to themselves, for hovers on them.
+                    self.record_use(&l.name, l.name.span, &v);
                     let (e, s) = env.bind(&l.name.name, v, l.name.span);
                     env = e;
                     scopes.push(s);
@@ -126,6 +133,81 @@ impl Checker<'_> {
                 out
             }
         }
+    }
+
+    /// `sdf |p| d |> op(...)` reads as `sdf |p| (d |> op(...))`: the body extends as far right
+    /// as it can. When `op` is a shape operation the author meant to apply it to the shape.
+    fn pipe_into_sdf(&self, file: FileId, body: ExprId) -> Option<Diagnostic> {
+        let ast = self.ast(file);
+        let Expr::Pipe(lhs, rhs) = ast.expr(body) else {
+            return None;
+        };
+        let callee = match ast.expr(*rhs) {
+            Expr::Call { callee, .. } => *callee,
+            _ => *rhs,
+        };
+        let Expr::Name(op) = ast.expr(callee) else {
+            return None;
+        };
+        if !builtins::is_shape_operation(&op.name) {
+            return None;
+        }
+        let sdf = ast.span(*lhs);
+        Some(
+            Diagnostic::error(
+                "E0201",
+                format!("`|> {}` is part of the distance function's body", op.name),
+            )
+            .label(
+                self.span(file, *rhs),
+                format!(
+                    "this applies `{}` to the distance, a num, not to the shape",
+                    op.name
+                ),
+            )
+            .label(sdf, "this distance is what it is applied to")
+            .note("the body of `sdf |p| ...` reaches as far right as it can, `|>` included")
+            .help(format!(
+                "put the `sdf` in parentheses and pipe the shape: `(sdf |p| ...) |> {}(...)`",
+                op.name
+            )),
+        )
+    }
+
+    /// The value of `-D NAME=VALUE`: a constant of the type the scene's own value has.
+    fn override_value(&mut self, l: &LetStmt, original: Value, o: &Override) -> Value {
+        let v = self.eval(o.file, &Env::default(), o.value);
+        let span = self.span(o.file, o.value);
+        let what = format!("`-D {}`", l.name.name);
+        if v.is_error() || !self.require_const(&v, span, &what) {
+            return Value::Error;
+        }
+        if original.is_error() {
+            return Value::Error;
+        }
+        let want = original.ty();
+        let v = ops::coerce(self, v, &want);
+        if !want.accepts(&v.ty()) {
+            let found = v.ty();
+            return self.error(
+                Diagnostic::error(
+                    "E0201",
+                    format!(
+                        "mismatched types: `-D {}` must be {}",
+                        l.name.name,
+                        article(&want)
+                    ),
+                )
+                .label(span, format!("expected {want}, found {found}"))
+                .label(
+                    l.name.span,
+                    format!("`{}` is {} in the scene", l.name.name, article(&want)),
+                )
+                .help("an override has the type of the value it replaces"),
+            );
+        }
+        // The original passed its annotation, if any, so `want` already is that type.
+        v
     }
 
     pub fn warn_unused_scope(&mut self, s: &Scope, what: &str) {
@@ -170,10 +252,15 @@ impl Checker<'_> {
     fn lookup(&mut self, file: FileId, env: &Env, name: &Ident) -> Value {
         if let Some(s) = env.lookup(&name.name) {
             s.used.set(true);
-            return s.value.clone();
+            let v = s.value.clone();
+            self.record_use(name, s.span, &v);
+            return v;
         }
         if let Some(g) = self.find_global(file, &name.name) {
-            return self.global_value(g, name.span);
+            let v = self.global_value(g, name.span);
+            let def = self.globals[g].name.span;
+            self.record_use(name, def, &v);
+            return v;
         }
         if let Some(v) = builtins::constant(self, &name.name) {
             return v;
@@ -186,14 +273,16 @@ impl Checker<'_> {
         candidates.extend(globals.iter().map(String::as_str));
         candidates.extend(builtins::names().map(|n| -> &str { n }));
         let hint = did_you_mean(&name.name, candidates.iter().copied());
-        let hint = hint.or_else(|| match name.name.as_str() {
-            "p" | "n" => Some(format!(
-                "`{}` exists inside material maps `|p, n| ...` and `sdf |p| ...`",
-                name.name
-            )),
-            "true_" | "True" | "False" => Some("booleans are `true` and `false`".to_string()),
-            _ => None,
-        });
+        let hint = synonym(&name.name)
+            .or(hint)
+            .or_else(|| match name.name.as_str() {
+                "p" | "n" => Some(format!(
+                    "`{}` exists inside material maps `|p, n| ...` and `sdf |p| ...`",
+                    name.name
+                )),
+                "true_" | "True" | "False" => Some("booleans are `true` and `false`".to_string()),
+                _ => None,
+            });
         self.error(
             Diagnostic::error("E0101", format!("unknown name `{}`", name.name))
                 .label(name.span, "not found in this scope")
@@ -245,7 +334,11 @@ impl Checker<'_> {
                 let l = l.clone();
                 self.globals[g].state = GlobalState::InProgress;
                 let v = self.eval(file, &Env::default(), l.value);
-                self.annotate(file, &l, v)
+                let v = self.annotate(file, &l, v);
+                match self.globals[g].overridden.clone() {
+                    Some(o) => self.override_value(&l, v, &o),
+                    None => v,
+                }
             }
         };
         self.globals[g].state = GlobalState::Done(v.clone());
@@ -271,6 +364,14 @@ impl Checker<'_> {
                     let def = def.clone();
                     self.check_fn_signature(self.globals[g].file, &def);
                 }
+            }
+        }
+        // A definition resolves to itself, so hovering over it shows it too.
+        for &g in &roots {
+            let name = self.globals[g].name.clone();
+            if let GlobalState::Done(v) = &self.globals[g].state {
+                let v = v.clone();
+                self.record_use(&name, name.span, &v);
             }
         }
         for &g in &roots {
@@ -332,6 +433,12 @@ impl Checker<'_> {
             }
         };
         if self.call_depth >= MAX_CALL_DEPTH {
+            // One report per runaway recursion: the calls still pending as it unwinds (other
+            // arguments, builtins) are at the limit too, but they are not the cause.
+            if self.recursion_reported {
+                return Value::Error;
+            }
+            self.recursion_reported = true;
             return self.error(
                 Diagnostic::error("E0401", "recursion too deep")
                     .label(span, format!("this call is {MAX_CALL_DEPTH} calls deep"))
@@ -375,6 +482,7 @@ impl Checker<'_> {
                 } else {
                     let mut inner = env.clone();
                     for (p, a) in params.iter().zip(args) {
+                        self.record_use(p, p.span, &a.value);
                         inner = inner.bind(&p.name, a.value, p.span).0;
                     }
                     self.eval(*file, &inner, *body)
@@ -382,6 +490,9 @@ impl Checker<'_> {
             }
         };
         self.call_depth -= 1;
+        if self.call_depth == 0 {
+            self.recursion_reported = false;
+        }
         out
     }
 
@@ -417,6 +528,7 @@ impl Checker<'_> {
                 ok = false;
                 continue;
             }
+            self.record_use(&p.name, p.name.span, &v);
             let (e, s) = env.bind(&p.name.name, v, p.name.span);
             env = e;
             scopes.push(s);
@@ -454,6 +566,14 @@ impl Checker<'_> {
     }
 
     fn list(&mut self, file: FileId, env: &Env, xs: &[ExprId], span: Span) -> Value {
+        if xs.len() > MAX_LIST {
+            return self.error(
+                Diagnostic::error("E0402", "list too large")
+                    .label(span, format!("this list has {} items", xs.len()))
+                    .note(format!("a range or list may have at most {MAX_LIST} items"))
+                    .help("use `tile` to repeat a shape instead of listing copies"),
+            );
+        }
         let vals: Vec<Value> = xs.iter().map(|x| self.eval(file, env, *x)).collect();
         if vals.iter().any(Value::is_error) {
             return Value::Error;
@@ -573,6 +693,7 @@ impl Checker<'_> {
         let mut out = Vec::with_capacity(items.len());
         let mut used = false;
         for item in items {
+            self.record_use(var, var.span, &item);
             let (inner, scope) = env.bind(&var.name, item, var.span);
             let v = self.eval(file, &inner, body);
             used |= scope.used.get();
@@ -602,4 +723,26 @@ impl Checker<'_> {
         }
         Value::List(Rc::new(out))
     }
+}
+
+/// Names authors reach for from other tools, and what this language calls them.
+fn synonym(name: &str) -> Option<String> {
+    let (ours, why) = match name {
+        "hypercube" | "tesseract" | "cube" | "box" => ("hyperbox", "a 4D box, as in `hyperbox(1)`"),
+        "sphere" | "ball" | "glome" => ("hypersphere", "the 4D ball, as in `hypersphere(1)`"),
+        "metal" | "metallic" | "specular" => (
+            "shiny",
+            "a metal-like surface, as in `shiny(roughness: 0.2)`",
+        ),
+        "plane" | "ground" => ("halfspace", "everything on one side of a plane"),
+        "lambert" | "matte" => ("diffuse", "a matte surface, as in `diffuse(rgb(0.8))`"),
+        "emissive" | "lamp" | "emitter" => {
+            ("light", "a glowing surface, as in `light(intensity: 10)`")
+        }
+        "difference" | "minus" => ("subtract", "`subtract(shape, cut)`"),
+        "intersection" => ("intersect", "`intersect(a, b)`"),
+        "move" | "translated" => ("translate", "`translate([x, y, z, w])`"),
+        _ => return None,
+    };
+    Some(format!("this language calls it `{ours}`: {why}"))
 }

@@ -2,12 +2,14 @@
 //! ranges, and collects what depends on `p`, `n` or `t` as field expressions.
 
 mod builtins;
-mod context;
+pub(crate) mod context;
 mod eval;
 mod ops;
 mod scene;
 mod suggest;
 pub(crate) mod value;
+
+pub use context::Resolved;
 
 use crate::diagnostic::Diagnostic;
 use crate::source::{FileId, SourceMap, Span};
@@ -21,6 +23,8 @@ pub struct Checked {
     pub diagnostics: Vec<Diagnostic>,
     pub ast: Ast,
     pub scene: Option<crate::scene::Scene>,
+    /// Every name use resolved to its definition (empty when parsing failed).
+    pub resolved: Vec<context::Resolved>,
 }
 
 /// Longest chain of imports, and most files in one compilation.
@@ -29,23 +33,35 @@ const MAX_FILES: usize = 1000;
 /// Diagnostics beyond this many are summarised.
 const MAX_DIAGNOSTICS: usize = 100;
 
-pub fn compile_path(path: &Path) -> Checked {
+/// Compile a file; `defines` are `-D NAME=VALUE` overrides of its top-level `let`s.
+pub fn compile_path(path: &Path, defines: &[String]) -> Checked {
     let mut loader = Loader::default();
     match loader.read(path, &path.display().to_string(), None) {
-        Ok(root) => loader.finish(root),
+        Ok(root) => loader.finish(root, defines),
         Err(d) => Checked {
             sources: loader.sources,
             diagnostics: vec![d],
             ast: Ast::default(),
             scene: None,
+            resolved: vec![],
         },
     }
+}
+
+/// Compile the text of the file at `path` as it is in an editor, not on disk: imports resolve
+/// relative to `path`.
+pub fn compile_text(path: &Path, text: &str) -> Checked {
+    let mut loader = Loader::default();
+    let root = loader
+        .sources
+        .add(path.display().to_string(), Some(path), text);
+    loader.finish(root, &[])
 }
 
 pub fn compile_source(name: &str, text: &str) -> Checked {
     let mut loader = Loader::default();
     let root = loader.sources.add(name, None, text);
-    loader.finish(root)
+    loader.finish(root, &[])
 }
 
 #[derive(Default)]
@@ -79,7 +95,7 @@ impl Loader {
                 let at = e.utf8_error().valid_up_to();
                 let text = String::from_utf8_lossy(e.as_bytes()).into_owned();
                 let id = self.sources.add(name, Some(path), text);
-                let line = self.sources.get(id).text[..at].matches('\n').count() + 1;
+                let line = self.sources.line_col(id, at).0;
                 let mut d = Diagnostic::error("E0503", format!("`{name}` is not valid UTF-8"))
                     .label(
                         Span::new(id, at, at + '\u{FFFD}'.len_utf8()),
@@ -119,6 +135,10 @@ impl Loader {
             .collect();
         self.asts[file.0 as usize] = ast;
         for (rel, span) in imports {
+            // An unterminated path was reported by the lexer; reading it would only add noise.
+            if !self.sources.snippet(span).ends_with('"') || self.sources.snippet(span).len() < 2 {
+                continue;
+            }
             let path = dir.join(&rel);
             let canon = std::fs::canonicalize(&path).unwrap_or(path.clone());
             if let Some(pos) = stack.iter().position(|(p, _)| *p == canon) {
@@ -193,19 +213,54 @@ impl Loader {
         }
     }
 
-    fn finish(mut self, root: FileId) -> Checked {
+    /// Each override is a source file of its own (named `-D`, or `-D #2` and so on when there
+    /// are several) that sees the root file's definitions.
+    fn add_defines(&mut self, root: FileId, defines: &[String]) -> Vec<context::Override> {
+        let mut out = vec![];
+        for (i, text) in defines.iter().enumerate() {
+            let name = if defines.len() == 1 {
+                "-D".to_string()
+            } else {
+                format!("-D #{}", i + 1)
+            };
+            let id = self.sources.add(name, None, text.as_str());
+            let (define, ast, diags) = syntax::parse_define(id, text);
+            self.diags.extend(diags);
+            while self.asts.len() <= id.0 as usize {
+                self.asts.push(Ast::default());
+                self.imports.push(vec![]);
+            }
+            self.asts[id.0 as usize] = ast;
+            self.imports[id.0 as usize] = vec![root];
+            if let Some((name, value)) = define {
+                out.push(context::Override {
+                    name,
+                    file: id,
+                    value,
+                });
+            }
+        }
+        out
+    }
+
+    fn finish(mut self, root: FileId, defines: &[String]) -> Checked {
         let root_path = self.sources.get(root).path.clone();
         let canon = root_path
             .as_ref()
             .map(|p| std::fs::canonicalize(p).unwrap_or(p.clone()));
         let mut stack: Vec<(PathBuf, FileId)> = canon.map(|c| (c, root)).into_iter().collect();
         self.load(root, &mut stack);
+        let overrides = self.add_defines(root, defines);
         let parse_failed = self.diags.iter().any(Diagnostic::is_error);
         let mut scene = None;
+        let mut resolved = vec![];
         if !parse_failed {
             let mut ck = context::Checker::new(&self.asts, std::mem::take(&mut self.imports));
+            ck.apply_overrides(root, overrides);
             let s = scene::build(&mut ck, root);
             ck.finish_globals(root);
+            resolved = ck.resolved.drain().map(|(_, r)| r).collect();
+            resolved.sort_by_key(|r: &context::Resolved| (r.use_span.file, r.use_span.start));
             let failed = ck.diags.iter().any(Diagnostic::is_error);
             self.diags.extend(ck.diags);
             if !failed {
@@ -231,6 +286,7 @@ impl Loader {
             diagnostics: diags,
             ast,
             scene,
+            resolved,
         }
     }
 }

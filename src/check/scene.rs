@@ -12,23 +12,6 @@ use crate::syntax::ast::*;
 use std::collections::HashMap;
 use std::rc::Rc;
 
-const RENDER_KEYS: [&str; 12] = [
-    "size",
-    "frames",
-    "spp",
-    "bounces",
-    "epsilon",
-    "max_steps",
-    "seed",
-    "denoise",
-    "quality",
-    "fps",
-    "exposure",
-    "threads",
-];
-const CAMERA_KEYS: [&str; 4] = ["from", "to", "look", "fov"];
-const OBJECT_KEYS: [&str; 2] = ["shape", "material"];
-
 /// Settings of one block by name, each evaluated once; unknown and repeated names reported.
 fn settings(
     ck: &mut Checker,
@@ -214,7 +197,7 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                 kind: BlockKind::Render,
                 settings: items,
             } => {
-                let s = settings(ck, root, "render", &RENDER_KEYS, items);
+                let s = settings(ck, root, "render", BlockKind::Render.settings(), items);
                 if let Some(q) = s.get("quality") {
                     let opts = [
                         ("draft", Quality::Draft),
@@ -291,7 +274,7 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                 kind: BlockKind::Camera,
                 settings: items,
             } => {
-                let s = settings(ck, root, "camera", &CAMERA_KEYS, items);
+                let s = settings(ck, root, "camera", BlockKind::Camera.settings(), items);
                 if let Some(v) = s
                     .get("from")
                     .and_then(|v| vec4(ck, v, "the camera's `from`"))
@@ -419,7 +402,7 @@ fn object(
     items: &[Setting],
     span: Span,
 ) -> Option<Object> {
-    let s = settings(ck, root, "object", &OBJECT_KEYS, items);
+    let s = settings(ck, root, "object", &OBJECT_SETTINGS, items);
     let Some((shape, sspan)) = s.get("shape") else {
         ck.error(
             Diagnostic::error("E0105", format!("object `{}` has no shape", name.name))
@@ -437,6 +420,30 @@ fn object(
     let material = match s.get("material") {
         None => Value::Material(Rc::new(Material::with_defaults(MaterialKind::Diffuse))),
         Some((Value::Function(f), mspan)) => {
+            if let Function::Lambda { params, .. } = &**f
+                && params.len() != 2
+            {
+                let heads = params.first().map_or(*mspan, |p| p.span);
+                let heads = params.last().map_or(heads, |p| heads.to(p.span));
+                let names: Vec<&str> = params.iter().map(|p| p.name.as_str()).collect();
+                ck.error(
+                    Diagnostic::error("E0202", "a material map takes `|p, n|`")
+                        .label(
+                            heads,
+                            format!(
+                                "this takes {} parameter{}",
+                                params.len(),
+                                super::context::plural(params.len())
+                            ),
+                        )
+                        .note("a material map is called with the hit point `p` and the surface normal `n`")
+                        .help(match names.as_slice() {
+                            [p] => format!("write `|{p}, n| ...`, and ignore `n` if you do not need it"),
+                            _ => "write `|p, n| ...`".to_string(),
+                        }),
+                );
+                return None;
+            }
             let p = ck.field(FieldOp::Input(Input::P), Type::Vec4);
             let n = ck.field(FieldOp::Input(Input::N), Type::Vec4);
             let args = [p, n]

@@ -104,6 +104,23 @@ impl Value {
 }
 
 impl Value {
+    /// A constant as the language writes it, for hovers; `None` for shapes, materials,
+    /// functions, fields and the like.
+    pub fn describe(&self) -> Option<String> {
+        let list = |xs: &[f64]| xs.iter().map(|x| Num(*x).to_string()).collect::<Vec<_>>();
+        Some(match self {
+            Value::Num(x) => Num(*x).to_string(),
+            Value::Angle(x) => format!("{}deg", Num(crate::scene::print::round9(x.to_degrees()))),
+            Value::Bool(b) => b.to_string(),
+            Value::Vec4(v) => format!("[{}]", list(v).join(", ")),
+            Value::Color(c) => format!("rgb({})", list(c).join(", ")),
+            Value::Str(s) => format!("{s:?}"),
+            Value::Size(w, h) => format!("{} x {}", Num(*w), Num(*h)),
+            Value::Plane(p) => Plane::ALL.iter().find(|(_, q)| q == p)?.0.to_string(),
+            _ => return None,
+        })
+    }
+
     /// The value as a field constant, if it is one of the types a field can hold.
     pub fn to_const(&self) -> Option<Const> {
         Some(match self {

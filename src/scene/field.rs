@@ -149,7 +149,19 @@ impl MathFn {
             M::Un(Un::Sin | Un::Cos | Un::Tan) => (vec![T::Angle], T::Num),
             M::Un(Un::Asin | Un::Acos | Un::Atan) => (vec![T::Num], T::Angle),
             M::Bin(Bin::Atan2) => (vec![T::Num, T::Num], T::Angle),
-            M::Un(Un::Sqrt | Un::Exp | Un::Ln) => {
+            // Documented as `num` (or `vec4`, componentwise): an angle or colour is an error
+            // here, at the call, not where the result is used.
+            M::Un(
+                Un::Sqrt
+                | Un::Exp
+                | Un::Ln
+                | Un::Abs
+                | Un::Floor
+                | Un::Ceil
+                | Un::Round
+                | Un::Fract
+                | Un::Sign,
+            ) => {
                 let x = if *first == T::Vec4 { T::Vec4 } else { T::Num };
                 (vec![x.clone()], x)
             }

@@ -225,7 +225,31 @@ impl BlockKind {
             BlockKind::Camera => "camera",
         }
     }
+
+    /// The settings the block takes (the checker reads them; hints and completion offer them).
+    pub fn settings(self) -> &'static [&'static str] {
+        match self {
+            BlockKind::Render => &[
+                "size",
+                "frames",
+                "spp",
+                "bounces",
+                "epsilon",
+                "max_steps",
+                "seed",
+                "denoise",
+                "quality",
+                "fps",
+                "exposure",
+                "threads",
+            ],
+            BlockKind::Camera => &["from", "to", "look", "fov"],
+        }
+    }
 }
+
+/// The settings of an `object`.
+pub const OBJECT_SETTINGS: [&str; 2] = ["shape", "material"];
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum ItemKind {

@@ -1,6 +1,7 @@
 //! Source text to syntax tree: lexing, a delimiter and nesting pre-pass, then the chumsky parser.
 
 pub mod ast;
+pub mod format;
 pub mod parser;
 pub mod print;
 pub mod token;
@@ -19,20 +20,7 @@ pub const MAX_NESTING: usize = 256;
 /// Parse one file. Always returns a tree (possibly partial) and the diagnostics found.
 pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
     let mut diags = Vec::new();
-    let mut tokens = Vec::new();
-    for (tok, range) in token::lex(src) {
-        let span = Span::new(file, range.start, range.end);
-        match tok {
-            Token::Error(e) => {
-                diags.push(lex_error(e, span, &src[range.clone()]));
-                // Stand in a number so the parser does not report the same mistake again.
-                if e == LexError::GluedNumber {
-                    tokens.push((Token::Number("0"), SimpleSpan::from(range)));
-                }
-            }
-            tok => tokens.push((tok, SimpleSpan::from(range))),
-        }
-    }
+    let tokens = tokens(file, src, &mut diags);
     let structural = check_structure(file, &tokens);
     if !structural.is_empty() {
         // Unbalanced or absurdly deep input: the parser would only echo these.
@@ -63,6 +51,77 @@ pub fn parse(file: FileId, src: &str) -> (Ast, Vec<Diagnostic>) {
     (ast, diags)
 }
 
+/// A command-line override `NAME=VALUE`, held as a source file of its own so that its
+/// diagnostics point into it: the name and the value's expression, or the diagnostics.
+pub fn parse_define(
+    file: FileId,
+    src: &str,
+) -> (Option<(ast::Ident, ast::ExprId)>, Ast, Vec<Diagnostic>) {
+    let mut diags = Vec::new();
+    let tokens = tokens(file, src, &mut diags);
+    diags.extend(check_structure(file, &tokens));
+    let mut state = chumsky::extra::SimpleState(parser::Builder {
+        ast: Ast::default(),
+        file,
+    });
+    let name = match tokens.as_slice() {
+        [(Token::Ident(name), nspan), (Token::Eq, _), _, ..] if diags.is_empty() => ast::Ident {
+            name: name.to_string(),
+            span: Span::new(file, nspan.start, nspan.end),
+        },
+        _ => {
+            if diags.is_empty() {
+                diags.push(
+                    Diagnostic::error("E0010", "`-D` takes NAME=VALUE")
+                        .label(Span::new(file, 0, src.len()), "this is not `NAME=VALUE`")
+                        .help("override a top-level `let`, as in `-D radius=0.5`"),
+                );
+            }
+            return (None, state.0.ast, diags);
+        }
+    };
+    let eoi = SimpleSpan::from(src.len()..src.len());
+    let input = tokens[2..].map(eoi, |(t, s)| (t, s));
+    let (value, errors) = parser::expr()
+        .then_ignore(end())
+        .parse_with_state(input, &mut state)
+        .into_output_errors();
+    diags.extend(errors.into_iter().map(|e| parse_error(file, src, e)));
+    let value = value.filter(|_| diags.is_empty());
+    (value.map(|v| (name, v)), state.0.ast, diags)
+}
+
+/// Lex a file into the parser's tokens, reporting lexing errors and standing in what was meant.
+fn tokens<'s>(
+    file: FileId,
+    src: &'s str,
+    diags: &mut Vec<Diagnostic>,
+) -> Vec<(Token<'s>, SimpleSpan)> {
+    let mut tokens = Vec::new();
+    for (tok, range) in token::lex(src) {
+        let span = Span::new(file, range.start, range.end);
+        match tok {
+            Token::Error(e) => {
+                let text = &src[range.clone()];
+                diags.push(lex_error(e, span, text));
+                // Stand in what was meant, so the parser does not report the mistake again.
+                let stand_in = match e {
+                    LexError::GluedNumber => Some(Token::Number("0")),
+                    LexError::NonAsciiName => Some(Token::Ident("_")),
+                    LexError::UnterminatedString => Some(Token::Str("\"\"")),
+                    LexError::BadChar if text == "%" => Some(Token::Mod),
+                    _ => None,
+                };
+                if let Some(t) = stand_in {
+                    tokens.push((t, SimpleSpan::from(range)));
+                }
+            }
+            tok => tokens.push((tok, SimpleSpan::from(range))),
+        }
+    }
+    tokens
+}
+
 fn lex_error(e: LexError, span: Span, text: &str) -> Diagnostic {
     match e {
         LexError::BadChar => {
@@ -80,9 +139,27 @@ fn lex_error(e: LexError, span: Span, text: &str) -> Diagnostic {
                     Some("colours are written `#rrggbb` with exactly six hex digits".to_string())
                 }
                 '\'' => Some("strings use double quotes: \"like this\"".to_string()),
+                '°' => Some(
+                    "angles are written with a unit: `60deg`, `0.5rad` or `0.25turn`".to_string(),
+                ),
                 _ => None,
             };
             d.maybe_help(hint)
+        }
+        LexError::NonAsciiName => {
+            let ascii: String = deunicode::deunicode(text)
+                .chars()
+                .map(|c| if c == ' ' { '_' } else { c })
+                .filter(|c| c.is_ascii_alphanumeric() || *c == '_')
+                .collect();
+            let hint = if ascii.is_empty() || ascii.starts_with(|c: char| c.is_ascii_digit()) {
+                "use ASCII letters, digits and `_`, as in `ball_2`".to_string()
+            } else {
+                format!("use ASCII letters, digits and `_`, as in `{ascii}`")
+            };
+            Diagnostic::error("E0001", format!("`{text}` is not a valid name"))
+                .label(span, "names are ASCII letters, digits and `_`")
+                .help(hint)
         }
         LexError::UnterminatedString => Diagnostic::error("E0002", "unterminated string")
             .label(span, "this string has no closing `\"`")
@@ -203,9 +280,10 @@ fn check_structure(file: FileId, tokens: &[(Token, SimpleSpan)]) -> Vec<Diagnost
                     Token::LBracket => Token::RBracket,
                     _ => Token::RBrace,
                 };
+                let opener_open = stack.iter().any(|(open, _)| want(open) == *tok);
                 match stack.pop() {
                     Some((open, _)) if want(&open) == *tok => {}
-                    Some((open, ospan)) => {
+                    Some((open, ospan)) if opener_open => {
                         diags.push(
                             Diagnostic::error(
                                 "E0011",
@@ -216,15 +294,20 @@ fn check_structure(file: FileId, tokens: &[(Token, SimpleSpan)]) -> Vec<Diagnost
                         );
                         return diags;
                     }
-                    None => {
-                        diags.push(
-                            Diagnostic::error(
-                                "E0011",
-                                format!("unexpected closing delimiter {tok}"),
-                            )
-                            .label(sp(span), "there is nothing here for it to close")
-                            .help("remove it, or add the opening delimiter it belongs to"),
-                        );
+                    // Nothing open that this closes: a stray, most likely one too many.
+                    inner => {
+                        let mut d = Diagnostic::error(
+                            "E0011",
+                            format!("unexpected closing delimiter {tok}"),
+                        )
+                        .label(sp(span), "there is nothing here for it to close");
+                        if let Some((open, ospan)) = inner {
+                            d = d.label(
+                                sp(&ospan),
+                                format!("the innermost open group is this {open}"),
+                            );
+                        }
+                        diags.push(d.help(format!("delete this {tok}")));
                         return diags;
                     }
                 }
@@ -293,7 +376,14 @@ fn parse_error(file: FileId, src: &str, e: Rich<Token>) -> Diagnostic {
         expected.retain(|e| !OPERATORS.contains(&e.as_str()));
         expected.push("an operator".to_string());
     }
-    let found_text = found.clone().unwrap_or_else(|| "end of file".to_string());
+    let text = src.get(e.span().start..e.span().end).unwrap_or("");
+    let found_text = match e.found() {
+        None => "end of file".to_string(),
+        Some(Token::Number(_)) => format!("number `{text}`"),
+        Some(Token::Hex(_)) => format!("colour `{text}`"),
+        Some(Token::Str(_)) => format!("string `{text}`"),
+        Some(_) => found.clone().unwrap_or_default(),
+    };
     let mut d = Diagnostic::error("E0010", format!("unexpected {found_text}"))
         .label(span, format!("expected {}", one_of_list(&expected)));
     for (label, cspan) in e.contexts() {
@@ -302,7 +392,6 @@ fn parse_error(file: FileId, src: &str, e: Rich<Token>) -> Diagnostic {
             d = d.label(cspan, format!("while parsing {label}"));
         }
     }
-    let text = src.get(e.span().start..e.span().end).unwrap_or("");
     d.maybe_help(parse_hint(e.found(), text, &expected))
 }
 
@@ -346,6 +435,22 @@ fn parse_hint(found: Option<&Token>, text: &str, expected: &[String]) -> Option<
             Some("`else` must follow the closing `}` of an `if` block".to_string())
         }
         Some(Token::LBrace) if wants("`else`") => None,
+        Some(Token::Ident(name)) if wants("an item") => {
+            let block = [ast::BlockKind::Render, ast::BlockKind::Camera]
+                .into_iter()
+                .find(|b| b.settings().contains(name));
+            match block {
+                Some(b) => Some(format!(
+                    "`{name}` is a setting of the `{}` block: write it inside `{} {{ {name} = ... }}`",
+                    b.keyword(),
+                    b.keyword()
+                )),
+                None if ast::OBJECT_SETTINGS.contains(name) => Some(format!(
+                    "`{name}` is a setting of an object: write it inside `object name {{ {name} = ... }}`"
+                )),
+                None => None,
+            }
+        }
         _ if wants("`else`") => {
             Some("every `if` needs an `else`: both branches give the value".to_string())
         }

@@ -12,19 +12,24 @@ pub enum LexError {
     UnterminatedComment,
     /// A number running straight into a name, such as `512x384` or `3px`.
     GluedNumber,
+    /// A name with letters outside ASCII, such as `café`.
+    NonAsciiName,
 }
 
 #[derive(Logos, Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[logos(error = LexError)]
-#[logos(skip r"[ \t\r\n\f]+")]
-#[logos(skip(r"//[^\n]*", allow_greedy = true))]
+// Line breaks are `source::LINE_BREAKS`, the set the reports count lines by: a `//` comment and
+// a string end at any of them, so a line number means the same to the lexer and the report.
+#[logos(skip r"[ \t\r\n\x0B\x0C\u{85}\u{2028}\u{2029}]+")]
+#[logos(skip(r"//[^\r\n\x0B\x0C\u{85}\u{2028}\u{2029}]*", allow_greedy = true))]
 #[logos(skip r"/\*([^*]|\*+[^*/])*\*+/")]
 pub enum Token<'src> {
     /// A lexing error, with why; the span says where.
     Error(LexError),
 
     #[regex(r"/\*([^*]|\*+[^*/])*\**", callback = unterminated_comment, priority = 1)]
-    #[regex(r#""([^"\\\n]|\\.)*"#, callback = unterminated_string, priority = 1, allow_greedy = true)]
+    #[regex(r#""([^"\\\r\n\x0B\x0C\u{85}\u{2028}\u{2029}]|\\[^\r\n\x0B\x0C\u{85}\u{2028}\u{2029}])*"#, callback = unterminated_string, priority = 1, allow_greedy = true)]
+    #[regex(r"[\p{L}_][\p{L}\p{N}_]*", callback = non_ascii_name, priority = 1)]
     #[regex(r"[0-9]+(\.[0-9]+)?[A-Za-z_][A-Za-z0-9_]*", callback = glued_number, priority = 1)]
     Unused,
 
@@ -34,7 +39,9 @@ pub enum Token<'src> {
     /// A hex colour `#rrggbb`.
     #[regex(r"#[0-9a-fA-F]{6}")]
     Hex(&'src str),
-    #[regex(r#""([^"\\\n]|\\.)*""#)]
+    #[regex(
+        r#""([^"\\\r\n\x0B\x0C\u{85}\u{2028}\u{2029}]|\\[^\r\n\x0B\x0C\u{85}\u{2028}\u{2029}])*""#
+    )]
     Str(&'src str),
     #[regex(r"[A-Za-z_][A-Za-z0-9_]*")]
     Ident(&'src str),
@@ -138,6 +145,10 @@ fn glued_number<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), LexError>
     Err(LexError::GluedNumber)
 }
 
+fn non_ascii_name<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), LexError> {
+    Err(LexError::NonAsciiName)
+}
+
 fn unterminated_string<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), LexError> {
     Err(LexError::UnterminatedString)
 }
@@ -201,10 +212,17 @@ impl fmt::Display for Token<'_> {
 }
 
 /// Lex a whole file: every token with its byte range. Never fails; errors are `Error` tokens.
+/// A leading byte-order mark, which some editors write, is not part of the text.
 pub fn lex(src: &str) -> Vec<(Token<'_>, std::ops::Range<usize>)> {
-    Token::lexer(src)
+    let bom = if src.starts_with('\u{feff}') { 3 } else { 0 };
+    Token::lexer(&src[bom..])
         .spanned()
-        .map(|(t, span)| (t.unwrap_or_else(Token::Error), span))
+        .map(|(t, span)| {
+            (
+                t.unwrap_or_else(Token::Error),
+                span.start + bom..span.end + bom,
+            )
+        })
         .collect()
 }
 
@@ -248,5 +266,36 @@ mod tests {
         );
         let toks: Vec<_> = lex("/* never closed").into_iter().map(|t| t.0).collect();
         assert_eq!(toks, vec![Token::Error(LexError::UnterminatedComment)]);
+        let toks: Vec<_> = lex("café x").into_iter().map(|t| t.0).collect();
+        assert_eq!(
+            toks,
+            vec![Token::Error(LexError::NonAsciiName), Token::Ident("x")]
+        );
+    }
+
+    /// Every line break the reports count ends a comment and a string, and nothing else does.
+    #[test]
+    fn line_breaks_are_the_reports_line_breaks() {
+        for brk in crate::source::LINE_BREAKS {
+            let src = format!("// c{brk}x \"s{brk}y");
+            let toks: Vec<_> = lex(&src).into_iter().map(|t| t.0).collect();
+            assert_eq!(
+                toks,
+                vec![
+                    Token::Ident("x"),
+                    Token::Error(LexError::UnterminatedString),
+                    Token::Ident("y")
+                ],
+                "{brk:?}"
+            );
+        }
+        let toks: Vec<_> = lex("// c\u{a0}x").into_iter().map(|t| t.0).collect();
+        assert!(toks.is_empty());
+    }
+
+    #[test]
+    fn byte_order_mark_is_skipped() {
+        let toks = lex("\u{feff}let");
+        assert_eq!(toks, vec![(Token::Let, 3..6)]);
     }
 }

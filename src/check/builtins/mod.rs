@@ -29,6 +29,11 @@ pub fn is_function(name: &str) -> bool {
     names().any(|n| n == name) && !table::CONSTANTS.contains(&name)
 }
 
+/// A builtin that takes a shape first and gives a shape: what `|>` is for.
+pub fn is_shape_operation(name: &str) -> bool {
+    SPECIAL.contains(&name) || table::find(name).is_some_and(|b| b.kind == Kind::Operation)
+}
+
 pub fn intern(name: &str) -> &'static str {
     names().find(|n| *n == name).unwrap_or("?")
 }
@@ -154,6 +159,55 @@ impl Args<'_, '_> {
     }
 }
 
+/// `translate(0, 1, 0, 0)`: four numbers where one vec4 is wanted, which would otherwise read
+/// as one wrong type and three extra arguments.
+fn spread_vec4(
+    name: &str,
+    params: &[ParamSpec],
+    args: &[ArgVal],
+    span: Span,
+) -> Option<Diagnostic> {
+    let positional = args.iter().take_while(|a| a.name.is_none()).count();
+    if positional <= params.len() {
+        return None;
+    }
+    let i = params.iter().position(|p| p.ty == table::ParamType::Vec4)?;
+    let four = args.get(i..i + 4)?;
+    let nums: Vec<f64> = four
+        .iter()
+        .map(|a| match a.value {
+            Value::Num(x) => Some(x),
+            _ => None,
+        })
+        .collect::<Option<_>>()?;
+    if positional != i + 4 {
+        return None;
+    }
+    let shown: Vec<String> = nums.iter().map(|x| Num(*x).to_string()).collect();
+    let whole = four[0].span.to(four[3].span);
+    Some(
+        Diagnostic::error(
+            "E0201",
+            format!(
+                "mismatched types: argument `{}` of `{name}` must be a vec4",
+                params[i].name
+            ),
+        )
+        .label(four[0].span, "expected a vec4, found a num")
+        .label(whole, "these four numbers are one vec4")
+        .label(span, format!("`{name}` takes {}", builtin_params(params)))
+        .help(format!("write `{name}([{}])`", shown.join(", "))),
+    )
+}
+
+fn builtin_params(params: &[ParamSpec]) -> String {
+    params
+        .iter()
+        .map(|p| format!("`{}`", p.name))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 pub fn call(ck: &mut Checker, name: &'static str, args: Vec<ArgVal>, span: Span) -> Value {
     if let Some(f) = MathFn::from_name(name)
         && !(name == "round" && args.first().is_some_and(|a| a.value.ty() == Type::Shape))
@@ -169,6 +223,9 @@ pub fn call(ck: &mut Checker, name: &'static str, args: Vec<ArgVal>, span: Span)
         return Value::Error;
     };
     let names = builtin.names();
+    if let Some(d) = spread_vec4(name, builtin.params, &args, span) {
+        return ck.error(d);
+    }
     let Some(slots) = ck.bind(name, &names, args, span) else {
         return Value::Error;
     };

@@ -182,12 +182,13 @@ pub(super) fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec
             primitive(a, kind)
         }
         "tile" => {
+            let sspan = a.slots[0].as_ref().map_or(a.span, |s| s.span);
             let s = a.shape(0);
             let (l, lspan) = a.get(1, &specs[1]);
             let (Some(shape), Value::Lattice(lat)) = (s, l) else {
                 return Value::Error;
             };
-            check_fit(a.ck, &shape, &lat, lspan, a.span);
+            check_fit(a.ck, &shape, &lat, lspan, sspan);
             primitive(
                 a,
                 S::Tile {

@@ -28,7 +28,21 @@ pub(super) fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec
             }
         }
         "rgb" => {
-            // `rgb(x)` is a grey: the missing channels default to the first.
+            // `rgb(x)` is a grey: the missing channels default to the first. Two channels
+            // would silently repeat the first as blue, so it takes one or three.
+            if a.slots[1].is_some() != a.slots[2].is_some() {
+                let given: Vec<&str> = (0..3)
+                    .filter(|i| a.slots[*i].is_some())
+                    .map(|i| a.names[i])
+                    .collect();
+                a.ck.error(
+                    Diagnostic::error("E0202", "`rgb` takes one number or three")
+                        .label(a.span, format!("this gives only {}", given.join(" and ")))
+                        .note("`rgb(x)` is a grey; `rgb(r, g, b)` gives each channel")
+                        .help("add the missing channel, as in `rgb(0.95, 0.65, 0.2)`, or give one number for a grey"),
+                );
+                return Value::Error;
+            }
             let r = a.get(0, &specs[0]).0;
             let g = a.get_or(1, Type::Num, Some(r.clone())).0;
             let b = a.get_or(2, Type::Num, Some(r.clone())).0;
