@@ -529,22 +529,7 @@ fn semantic_tokens(text: &str) -> lsp::SemanticTokens {
             Token::Ident(_) if matches!(tokens.get(i + 1), Some((Token::LParen, _))) => 4,
             Token::Ident(_) => 5,
             Token::Error(_) | Token::Unused => continue,
-            Token::Let
-            | Token::Fn
-            | Token::Object
-            | Token::Render
-            | Token::Camera
-            | Token::Sky
-            | Token::Medium
-            | Token::Import
-            | Token::If
-            | Token::Else
-            | Token::For
-            | Token::In
-            | Token::True
-            | Token::False
-            | Token::Sdf
-            | Token::Mod => 0,
+            t if t.is_keyword() => 0,
             _ => 6,
         };
         spans.push((r.clone(), kind));

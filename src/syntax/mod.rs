@@ -415,22 +415,11 @@ fn parse_hint(found: Option<&Token>, text: &str, expected: &[String]) -> Option<
             Some("settings and bindings use `=`, as in `spp = 16`".to_string())
         }
         Some(Token::EqEq) if wants("`=`") => Some("bindings use a single `=`".to_string()),
-        Some(
-            Token::Let
-            | Token::Fn
-            | Token::Object
-            | Token::Render
-            | Token::Camera
-            | Token::Sky
-            | Token::Medium
-            | Token::Import
-            | Token::If
-            | Token::Else
-            | Token::For
-            | Token::In
-            | Token::Sdf
-            | Token::Mod,
-        ) if wants("a name") => Some(format!("`{text}` is a keyword and can't be used as a name")),
+        Some(t)
+            if t.is_keyword() && !matches!(t, Token::True | Token::False) && wants("a name") =>
+        {
+            Some(format!("`{text}` is a keyword and can't be used as a name"))
+        }
         Some(Token::Else) => {
             Some("`else` must follow the closing `}` of an `if` block".to_string())
         }

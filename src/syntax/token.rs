@@ -137,6 +137,31 @@ pub enum Token<'src> {
     OrOr,
 }
 
+impl Token<'_> {
+    /// A reserved word (`true` and `false` included), which can't be a name.
+    pub fn is_keyword(&self) -> bool {
+        matches!(
+            self,
+            Token::Let
+                | Token::Fn
+                | Token::Object
+                | Token::Render
+                | Token::Camera
+                | Token::Sky
+                | Token::Medium
+                | Token::Import
+                | Token::If
+                | Token::Else
+                | Token::For
+                | Token::In
+                | Token::True
+                | Token::False
+                | Token::Sdf
+                | Token::Mod
+        )
+    }
+}
+
 fn unterminated_comment<'s>(_: &mut logos::Lexer<'s, Token<'s>>) -> Result<(), LexError> {
     Err(LexError::UnterminatedComment)
 }
