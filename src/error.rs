@@ -24,6 +24,61 @@ pub enum Error {
     #[error("the render was cancelled")]
     Cancelled,
 
+    /// What was asked for cannot be done (the message says why and what to do instead).
+    #[error("{0}")]
+    Usage(String),
+
+    /// A render's hidden film directory could not be removed after its output was written.
+    #[error("cannot remove the films in `{}` after writing the output: {source}", .path.display())]
+    RemoveFilms {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// A film file could not be read or made.
+    #[error(transparent)]
+    Film(#[from] crate::film::file::FilmError),
+
+    /// A film file's header is not what a film of this render holds.
+    #[error("cannot use film `{}`: {message}", .path.display())]
+    FilmHeader { path: PathBuf, message: String },
+
+    /// A film was rendered from another scene or other settings.
+    #[error(
+        "film `{}` was rendered from another scene or other settings: it has `{theirs}` where this render has `{ours}`\n  hint: render into another --films directory, or delete this one to start afresh",
+        .path.display()
+    )]
+    FilmMismatch {
+        path: PathBuf,
+        ours: String,
+        theirs: String,
+    },
+
+    /// A film directory could not be listed.
+    #[error("cannot read film directory `{}`: {source}", .path.display())]
+    ReadFilms {
+        path: PathBuf,
+        #[source]
+        source: std::io::Error,
+    },
+
+    /// There are no films to merge.
+    #[error("no film files (frame_*.exr) in {}", .dirs.iter().map(|d| format!("`{}`", d.display())).collect::<Vec<_>>().join(", "))]
+    NoFilms { dirs: Vec<PathBuf> },
+
+    /// The same unit's film is in two of the directories merged.
+    #[error("`{name}` is both in `{}` and in `{}`; merge each shard's films once", .first.display(), .second.display())]
+    MergeDuplicate {
+        name: String,
+        first: PathBuf,
+        second: PathBuf,
+    },
+
+    /// Shards are missing or unfinished.
+    #[error("the shards are not complete:\n  {}", .problems.join("\n  "))]
+    MergeIncomplete { problems: Vec<String> },
+
     /// Writing a file failed (frames, results or the plot).
     #[error(transparent)]
     Output(#[from] OutputError),

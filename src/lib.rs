@@ -60,6 +60,7 @@ pub mod compile;
 pub mod denoise;
 pub mod diagnostic;
 pub mod error;
+pub mod farm;
 pub mod film;
 #[doc(hidden)]
 pub mod ir;

@@ -83,6 +83,10 @@ enum Command {
     },
     /// Render a scene to an animated GIF, PNG frames or EXR frames.
     Render(render_command::RenderArgs),
+    /// Put the films of a sharded render (`render --shard K/N --films DIR`) together: check
+    /// that every shard is there and finished, sum sample ranges, denoise across frames and
+    /// encode, exactly as one machine's render would.
+    Merge(render_command::MergeArgs),
     /// Measure speed against accuracy: a reference render, then a sweep of settings, each
     /// timed and compared with it; writes a table, CSV and a plot.
     Bench(bench_command::BenchArgs),
@@ -109,6 +113,8 @@ fn compile(file: &Path, args: &SceneArgs, color: bool) -> Option<Scene> {
 fn finish(result: hyperslice::error::Result<()>) -> ExitCode {
     match result {
         Ok(()) => ExitCode::SUCCESS,
+        // Interrupted: what was kept and how to resume is already said.
+        Err(hyperslice::Error::Cancelled) => ExitCode::from(130),
         Err(e) => {
             eprintln!("error: {e}");
             ExitCode::FAILURE
@@ -165,6 +171,7 @@ fn main() -> ExitCode {
             }
         }
         Command::Render(args) => render_command::run(args, color),
+        Command::Merge(args) => finish(render_command::merge(args)),
         Command::Bench(args) => bench_command::run(args, color),
         Command::Compile(args) => compile_command::run(args, color),
         Command::Fmt(args) => fmt_command::run(args, color),

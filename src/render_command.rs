@@ -9,7 +9,10 @@ use hyperslice::scene::{Denoise, Quality, RenderSettings, Scene};
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Duration;
+use indicatif::HumanCount;
+use std::sync::OnceLock;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -70,6 +73,24 @@ pub struct RenderArgs {
     /// Sobol sequence per pixel.
     #[arg(long, value_enum, default_value_t)]
     sampler: SamplerKind,
+    /// Render only frame N of the scene's animation (0-based; `t` as in the whole animation).
+    /// The file gets the frame's own number, e.g. out_0012.png.
+    #[arg(long, value_name = "N", conflicts_with = "frame_range")]
+    frame: Option<u32>,
+    /// Render only frames A..B (half-open, 0-based; A..=B includes B) of the animation, each
+    /// identical to the same frame of a whole render and numbered as in it.
+    #[arg(long, value_name = "A..B", value_parser = parse_range)]
+    frame_range: Option<(u32, Option<u32>)>,
+    /// Keep the films (each frame's linear accumulation, multi-layer EXR) in DIR. An
+    /// interrupted render run again with the same DIR resumes where it stopped. Without it,
+    /// the films live in a hidden directory beside the output until the output is written.
+    #[arg(long, value_name = "DIR")]
+    films: Option<PathBuf>,
+    /// Render the K-th (0-based) of N parts of the work into --films DIR, for several machines:
+    /// whole frames when there are at least N frames, otherwise sample ranges of every frame.
+    /// `hyperslice merge` puts the parts' films together.
+    #[arg(long, value_name = "K/N", value_parser = parse_shard, requires = "films")]
+    shard: Option<(u32, u32)>,
     /// Re-check and re-render whenever the scene or a file it imports changes, printing
     /// diagnostics instead of stopping on errors. Renders at `--quality draft` unless a
     /// quality is given.
@@ -103,6 +124,39 @@ fn parse_duration(s: &str) -> Result<Duration, String> {
     } else {
         Err(err())
     }
+}
+
+/// `A..B`, `A..=B` or `A..` (to the last frame).
+fn parse_range(s: &str) -> Result<(u32, Option<u32>), String> {
+    let err = || format!("`{s}` is not a frame range; write A..B (B excluded) or A..=B");
+    let (a, b, inclusive) = if let Some((a, b)) = s.split_once("..=") {
+        (a, b, true)
+    } else if let Some((a, b)) = s.split_once("..") {
+        (a, b, false)
+    } else {
+        return Err(err());
+    };
+    let a: u32 = a.trim().parse().map_err(|_| err())?;
+    let b: Option<u32> = match b.trim() {
+        "" if !inclusive => None,
+        b => Some(b.parse::<u32>().map_err(|_| err())? + inclusive as u32),
+    };
+    if b.is_some_and(|b| b <= a) {
+        return Err(format!("`{s}` holds no frames"));
+    }
+    Ok((a, b))
+}
+
+/// `K/N` with `K < N`.
+fn parse_shard(s: &str) -> Result<(u32, u32), String> {
+    let err = || format!("`{s}` is not a shard; write K/N with 0 <= K < N, e.g. 2/8");
+    let (k, n) = s.split_once('/').ok_or_else(err)?;
+    let k: u32 = k.trim().parse().map_err(|_| err())?;
+    let n: u32 = n.trim().parse().map_err(|_| err())?;
+    if n == 0 || k >= n || n > 100_000 {
+        return Err(err());
+    }
+    Ok((k, n))
 }
 
 fn parse_fraction(s: &str) -> Result<f64, String> {
@@ -190,7 +244,38 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
     }
 }
 
+/// Set by SIGINT or SIGTERM; a second signal exits at once.
+fn interrupted() -> &'static AtomicBool {
+    static FLAG: OnceLock<&'static AtomicBool> = OnceLock::new();
+    FLAG.get_or_init(|| {
+        let flag: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
+        let installed = ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                eprintln!("\ninterrupted again: stopping now");
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupted: saving the work in flight (interrupt again to stop at once)");
+        });
+        if let Err(e) = installed {
+            eprintln!("warning: cannot catch interrupts ({e}); an interrupted render keeps only finished frames");
+        }
+        flag
+    })
+}
+
+/// The hidden film directory beside `out` for a render without `--films`.
+fn hidden_films(out: &Path) -> PathBuf {
+    let name = out.file_name().unwrap_or_default().to_string_lossy();
+    out.with_file_name(format!(".{name}.films"))
+}
+
+fn plural(n: usize, one: &str) -> String {
+    format!("{n} {one}{}", if n == 1 { "" } else { "s" })
+}
+
 fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> {
+    use hyperslice::error::Error;
+    use hyperslice::farm::{assemble, films::FilmDir, plan::Part};
     args.apply(&mut scene.render);
     let out = args
         .output
@@ -199,33 +284,31 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     // Fail on an unwritable path before spending any time rendering.
     output::check_writable(&out, &args.file)?;
     let r = &scene.render;
-    eprintln!(
-        "rendering {}: {}, {} spp, {} bounces",
-        args.file.display(),
-        extent(r),
-        r.spp,
-        r.bounces
-    );
-    // A progressive render's length is its time budget, or unknown: the bar then shows the
-    // samples taken and their rate.
-    let bar = if args.time_budget.is_some() || args.noise_threshold.is_some() {
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} {elapsed_precise} {pos} samples, {per_sec}")
-                .expect("a valid template"),
-        );
-        bar
-    } else {
-        let total = driver::total_samples(&scene);
-        let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {per_sec} samples",
-            )
-            .expect("a valid template"),
-        );
-        bar
+    let frames = match (args.frame, args.frame_range) {
+        (Some(f), _) => f..f.saturating_add(1),
+        (None, Some((a, b))) => a..b.unwrap_or(r.frames),
+        (None, None) => 0..r.frames,
     };
+    if frames.end > r.frames || frames.is_empty() {
+        return Err(Error::Usage(format!(
+            "frames {}..{} are not all in the animation: it has {} (0..{}); set `frames` in the scene or --frames to render more",
+            frames.start,
+            frames.end,
+            plural(r.frames as usize, "frame"),
+            r.frames
+        )));
+    }
+    let shard = args.shard.unwrap_or((0, 1));
+    let part = Part::new(frames.clone(), shard);
+    let progressive = args.time_budget.is_some() || args.noise_threshold.is_some();
+    if shard.1 > 1 && !part.splits_frames() && progressive {
+        return Err(Error::Usage(format!(
+            "{} frames cannot be split {} ways by samples with --time-budget or --noise-threshold, which decide per pixel how many samples to take; give at least {} frames or a fixed spp",
+            frames.len(),
+            shard.1,
+            shard.1
+        )));
+    }
     let options = Options {
         threads: (r.threads > 0).then_some(r.threads as usize),
         light_sampling: args.light_sampling == Switch::On,
@@ -234,32 +317,193 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         noise_threshold: args.noise_threshold,
         ..Options::default()
     };
-    let rendered = driver::render(&scene, &options, &|n| bar.inc(n));
-    bar.finish_and_clear();
-    let rendered = rendered?;
-    let images: Vec<_> = rendered.frames.iter().map(|f| f.image()).collect();
-    let settings = OutputSettings {
-        exposure: r.exposure,
-        fps: r.fps,
-    };
-    let written = output::write(&out, &images, &settings)?;
-    let s = &rendered.stats;
-    let secs = rendered.elapsed.as_secs_f64();
-    let pixels = r.width as f64 * r.height as f64 * r.frames as f64;
+    let dir = args.films.clone().unwrap_or_else(|| hidden_films(&out));
+    let name = args.file.file_name().unwrap_or_default().to_string_lossy();
+    let films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+    let units = part.units(r.spp);
+    let earlier = films.survey(&units)?;
     eprintln!(
-        "rendered in {secs:.2} s: {} samples ({:.0}/s, {:.1} per pixel), {} distance evaluations",
-        s.samples,
-        s.samples as f64 / secs.max(1e-9),
-        s.samples as f64 / pixels,
-        s.evaluations
+        "rendering {}: {} x {}, {}{}{}, {} spp, {} bounces",
+        args.file.display(),
+        r.width,
+        r.height,
+        if frames == (0..r.frames) {
+            plural(r.frames as usize, "frame")
+        } else {
+            format!("frames {}..{} of {}", frames.start, frames.end, r.frames)
+        },
+        if shard.1 > 1 {
+            format!(", shard {}/{}", shard.0, shard.1)
+        } else {
+            String::new()
+        },
+        if shard.1 > 1 && !part.splits_frames() {
+            units.first().map_or(" (no samples)".to_string(), |u| {
+                format!(" (samples {}..{})", u.samples.start, u.samples.end)
+            })
+        } else {
+            String::new()
+        },
+        r.spp,
+        r.bounces
     );
-    if r.denoise != Denoise::None {
+    if earlier.complete + earlier.partial > 0 {
         eprintln!(
-            "denoised ({}) in {:.2} s",
-            r.denoise.name(),
-            rendered.denoise_time.as_secs_f64()
+            "resuming from {}: {} of {} finished, {} part-done",
+            dir.display(),
+            earlier.complete,
+            plural(units.len(), "frame"),
+            earlier.partial
         );
     }
+    let todo: Vec<_> = units.iter().filter(|u| !earlier.finished.contains(u)).cloned().collect();
+    let total: u64 = (todo.iter())
+        .map(|u| r.width as u64 * r.height as u64 * u.samples.len() as u64)
+        .sum::<u64>()
+        .saturating_sub(earlier.samples);
+    // A progressive render's length is its time budget, or unknown: the bar then shows the
+    // samples taken and their rate.
+    let bar = if progressive {
+        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template("{spinner} {elapsed_precise} {human_pos} samples, {per_sec:.0} {msg}")
+                .expect("a valid template"),
+        );
+        bar
+    } else {
+        let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}",
+            )
+            .expect("a valid template"),
+        );
+        bar
+    };
+    let started = Instant::now();
+    let rate = |n: u64| {
+        let secs = started.elapsed().as_secs_f64().max(1e-9);
+        format!("{}/s samples", HumanCount((n as f64 / secs) as u64))
+    };
+    let progress = |n: u64| {
+        bar.inc(n);
+        bar.set_message(rate(bar.position()));
+    };
+    let monitor = driver::Monitor {
+        progress: &progress,
+        cancel: Some(interrupted()),
+    };
+    let rendered = driver::render_units(&scene, &options, &todo, &films, monitor);
+    bar.finish_and_clear();
+    let render_secs = started.elapsed().as_secs_f64();
+    let this_run = match rendered {
+        Err(Error::Cancelled) => {
+            let after = films.survey(&units)?;
+            eprintln!(
+                "interrupted after {render_secs:.1} s: {} of {} finished and {} part-done kept in {}",
+                after.complete,
+                plural(units.len(), "frame"),
+                after.partial,
+                dir.display()
+            );
+            eprintln!("  run the same command again to resume where it stopped");
+            return Err(Error::Cancelled);
+        }
+        Err(e) => return Err(e),
+        Ok(stats) => stats,
+    };
+    if shard.1 > 1 {
+        eprintln!(
+            "rendered shard {}/{} in {render_secs:.2} s into {}",
+            shard.0,
+            shard.1,
+            dir.display()
+        );
+        eprintln!(
+            "  when all {} shards are done: hyperslice merge {} -o {}",
+            shard.1,
+            dir.display(),
+            out.display()
+        );
+        return Ok(());
+    }
+    let set = assemble::Films::of_units(&dir, &units, r.spp)?;
+    let finish_start = Instant::now();
+    eprintln!(
+        "{} {}",
+        if r.denoise == Denoise::None { "encoding" } else { "denoising and encoding" },
+        plural(units.len(), "frame")
+    );
+    let finish = assemble::Finish {
+        denoise: r.denoise,
+        output: OutputSettings {
+            exposure: r.exposure,
+            fps: r.fps,
+        },
+    };
+    let written = assemble::assemble(&set, &finish, &out)?;
+    let finish_secs = finish_start.elapsed().as_secs_f64();
+    if args.films.is_none() {
+        // The output is written; the hidden films have served.
+        std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
+            path: dir.clone(),
+            source,
+        })?;
+    }
+    let times = Times {
+        render_secs,
+        finish_secs,
+        samples: this_run.samples,
+        frames: units.len(),
+    };
+    summary(args, &scene, &set.stats, &times, &written);
+    Ok(())
+}
+
+/// How long this run took, and for how much work.
+struct Times {
+    render_secs: f64,
+    finish_secs: f64,
+    /// Samples this run took (a resumed render took the others earlier).
+    samples: u64,
+    frames: usize,
+}
+
+/// What a finished render prints: times and rates of rendering and of finishing apart, the
+/// counts of all the work in the films (`s`), warnings, and the files.
+fn summary(
+    args: &RenderArgs,
+    scene: &Scene,
+    s: &hyperslice::render::integrator::Stats,
+    t: &Times,
+    written: &output::Written,
+) {
+    let r = &scene.render;
+    let (render_secs, finish_secs) = (t.render_secs, t.finish_secs);
+    let frames = t.frames.max(1) as f64;
+    let pixels = r.width as f64 * r.height as f64 * frames;
+    let rate = t.samples as f64 / render_secs.max(1e-9);
+    eprintln!(
+        "rendered in {render_secs:.2} s: {} samples ({}{}/s, {:.1} per pixel), {} distance evaluations",
+        HumanCount(s.samples),
+        if t.samples == s.samples {
+            String::new()
+        } else {
+            format!("{} in this run, ", HumanCount(t.samples))
+        },
+        HumanCount(rate as u64),
+        s.samples as f64 / pixels,
+        HumanCount(s.evaluations)
+    );
+    eprintln!(
+        "{} in {finish_secs:.2} s ({:.1} frames/s)",
+        if r.denoise == Denoise::None {
+            "encoded".to_string()
+        } else {
+            format!("denoised ({}) and encoded", r.denoise.name())
+        },
+        frames / finish_secs.max(1e-9)
+    );
     if s.out_of_steps > 0 {
         eprintln!(
             "warning: {} ray segment{} ran out of marching steps (max_steps {}); their paths were ended there",
@@ -285,17 +529,18 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
             "file": args.file.display().to_string(),
             "width": r.width,
             "height": r.height,
-            "frames": r.frames,
+            "frames": t.frames,
             "spp": r.spp,
-            "seconds": secs,
+            "seconds": render_secs + finish_secs,
+            "render_seconds": render_secs,
             "samples": s.samples,
-            "samples_per_second": s.samples as f64 / secs.max(1e-9),
+            "samples_per_second": rate,
             "samples_per_pixel": s.samples as f64 / pixels,
             "distance_evaluations": s.evaluations,
             "out_of_steps": s.out_of_steps,
             "dropped": s.dropped,
             "denoise": r.denoise.name(),
-            "denoise_seconds": rendered.denoise_time.as_secs_f64(),
+            "denoise_seconds": finish_secs,
             "gif_psnr": written.gif_psnr,
             "files": written.files.iter().map(|f| f.display().to_string()).collect::<Vec<_>>(),
         });
@@ -310,7 +555,6 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
             files[files.len() - 1].display()
         ),
     }
-    Ok(())
 }
 
 /// `render --watch`: check and render, then wait for a change to any file the scene was read
@@ -381,4 +625,70 @@ fn watch(args: &RenderArgs, color: bool) -> ExitCode {
 fn default_output(scene: &Path) -> PathBuf {
     let stem = scene.file_stem().unwrap_or_default().to_string_lossy();
     PathBuf::from(format!("{stem}.gif"))
+}
+
+#[derive(Args)]
+pub struct MergeArgs {
+    /// Film directories of the shards (from `render --shard K/N --films DIR`), one or several.
+    #[arg(required = true)]
+    dirs: Vec<PathBuf>,
+    /// Output file: .gif, .png (numbered frames) or .exr (numbered frames).
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Denoising filter (default: the one the scene was rendered with).
+    #[arg(long)]
+    denoise: Option<Denoise>,
+    /// Brightness multiplier (default: the scene's).
+    #[arg(long, value_parser = parse_positive)]
+    exposure: Option<f64>,
+    /// Frames per second of a GIF (default: the scene's).
+    #[arg(long, value_parser = parse_positive)]
+    fps: Option<f64>,
+}
+
+/// `hyperslice merge`: check that the shards are all there, then finish them as one render
+/// on one machine would.
+pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
+    use hyperslice::farm::assemble;
+    let start = Instant::now();
+    let set = assemble::Films::scan(&args.dirs)?;
+    let mut finish = assemble::Finish::of(&set.meta);
+    if let Some(d) = args.denoise {
+        finish.denoise = d;
+    }
+    if let Some(x) = args.exposure {
+        finish.output.exposure = x;
+    }
+    if let Some(x) = args.fps {
+        finish.output.fps = x;
+    }
+    let m = &set.meta;
+    let [k, n] = m.part.frames;
+    eprintln!(
+        "merging {}: {} x {}, frames {k}..{n} of {}, {} shard{} ({} film files), {} spp",
+        m.scene,
+        m.width,
+        m.height,
+        m.frames,
+        m.part.shard[1],
+        if m.part.shard[1] == 1 { "" } else { "s" },
+        set.frames.values().map(Vec::len).sum::<usize>(),
+        m.spp
+    );
+    let written = assemble::assemble(&set, &finish, &args.output)?;
+    eprintln!(
+        "merged in {:.2} s ({} samples in the films)",
+        start.elapsed().as_secs_f64(),
+        HumanCount(set.stats.samples)
+    );
+    match written.files.as_slice() {
+        [one] => eprintln!("wrote {}", one.display()),
+        files => eprintln!(
+            "wrote {} files: {} .. {}",
+            files.len(),
+            files[0].display(),
+            files[files.len() - 1].display()
+        ),
+    }
+    Ok(())
 }

@@ -595,6 +595,28 @@ pub fn write(
     }
 }
 
+/// [`write`] of frames with their own numbers: numbered files are `stem_NNNN.ext` of the
+/// frame's number `numbers[i]`; unnumbered, the one frame goes to `path` (a GIF is one file).
+pub fn write_frames(
+    path: &Path,
+    numbers: &[usize],
+    frames: &[HdrImage],
+    settings: &OutputSettings,
+    numbered: bool,
+) -> Result<Written, OutputError> {
+    let contiguous = numbers.iter().enumerate().all(|(i, &n)| i == n);
+    if Format::from_path(path)? == Format::Gif || (contiguous && (numbered == (frames.len() > 1))) {
+        return write(path, frames, settings);
+    }
+    let mut files = vec![];
+    for (&n, f) in numbers.iter().zip(frames) {
+        let target = if numbered { numbered_path(path, n) } else { path.to_path_buf() };
+        write(&target, std::slice::from_ref(f), settings)?;
+        files.push(target);
+    }
+    Ok(Written { files, gif_psnr: None })
+}
+
 fn too_large(path: &Path, format: Format, f: &HdrImage, limit: usize) -> OutputError {
     OutputError::TooLarge {
         path: path.to_path_buf(),

@@ -2,9 +2,15 @@
 //! rayon pool. Every sample's random stream depends only on the seed, frame, pixel and sample
 //! index, so the result is bit-identical whatever the number of threads.
 //!
+//! The work comes as units (a frame's range of samples) and is kept in a [`Store`] as it
+//! finishes, so an interrupted render resumes where it stopped: a tile takes a pass whole or not
+//! at all, and which pixels take the next pass is judged from the sums alone, so a resumed
+//! render adds exactly the samples an uninterrupted one would, in the same order.
+//!
 //! Samples are taken in passes (1, 1, 2, 4, 8, ... per pixel) when the render is progressive:
-//! with a time budget, a pass starts only if it is expected to end within the budget; with a
-//! noise threshold, a pixel stops taking samples once its relative standard error is below it.
+//! with a time budget, a pass starts only if it is expected to end within the frame's share of
+//! the budget; with a noise threshold, a pixel stops taking samples once its relative standard
+//! error is below it.
 
 use super::frame::{Features, FrameScene};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
@@ -22,8 +28,7 @@ use std::time::{Duration, Instant};
 const TILE: u32 = 16;
 /// Samples a pixel takes before adaptive sampling judges its noise.
 pub const ADAPTIVE_MIN: u32 = 16;
-/// Frames prepared and rendered together when the render is not progressive (a progressive
-/// render keeps every frame's tapes for all its passes).
+/// Most frames in flight at once (there are as many as worker threads, up to this).
 const FRAME_GROUP: usize = 16;
 
 /// Choices of a render that are not part of the scene.
@@ -73,21 +78,97 @@ pub struct Rendered {
     pub elapsed: Duration,
 }
 
+/// A piece of a render's work: samples `samples` of every pixel of frame `frame` (all of
+/// `0..spp`, unless the render is split across machines by samples).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Unit {
+    pub frame: u32,
+    pub samples: std::ops::Range<u32>,
+}
+
+impl Unit {
+    fn key(&self) -> (u32, u32, u32) {
+        (self.frame, self.samples.start, self.samples.end)
+    }
+}
+
+impl Ord for Unit {
+    fn cmp(&self, o: &Unit) -> std::cmp::Ordering {
+        self.key().cmp(&o.key())
+    }
+}
+
+impl PartialOrd for Unit {
+    fn partial_cmp(&self, o: &Unit) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(o))
+    }
+}
+
+/// A unit's accumulation, finished or not: every pixel's sums (row-major from the top left) and
+/// the counts of the work they took.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Progress {
+    pub unit: Unit,
+    pub sums: Vec<PixelSums>,
+    pub stats: Stats,
+    /// Every pass ran (or a progressive render decided it was done).
+    pub complete: bool,
+}
+
+/// Where a render keeps its work, so that an interrupted render resumes where it stopped: a
+/// film directory on disk, or memory.
+pub trait Store: Sync {
+    /// What an earlier run left of `unit`, if anything.
+    fn load(&self, unit: &Unit) -> Result<Option<Progress>>;
+    /// Keep `progress` (called when a unit finishes, now and then while it runs, and for every
+    /// unit in flight when the render is cancelled).
+    fn save(&self, progress: &Progress) -> Result<()>;
+}
+
+/// A [`Store`] in memory.
+#[derive(Default)]
+pub struct MemoryStore(std::sync::Mutex<std::collections::BTreeMap<Unit, Progress>>);
+
+impl MemoryStore {
+    pub fn into_map(self) -> std::collections::BTreeMap<Unit, Progress> {
+        self.0.into_inner().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl Store for MemoryStore {
+    fn load(&self, unit: &Unit) -> Result<Option<Progress>> {
+        Ok(self.0.lock().unwrap_or_else(|e| e.into_inner()).get(unit).cloned())
+    }
+    fn save(&self, progress: &Progress) -> Result<()> {
+        (self.0.lock().unwrap_or_else(|e| e.into_inner())).insert(progress.unit.clone(), progress.clone());
+        Ok(())
+    }
+}
+
 /// Samples a render takes at most, for progress bars.
 pub fn total_samples(scene: &Scene) -> u64 {
     let r = &scene.render;
     r.width as u64 * r.height as u64 * r.spp as u64 * r.frames as u64
 }
 
-/// The sample ranges of the passes: everything at once, or 1, 1, 2, 4, ... up to `spp`.
-fn passes(spp: u32, progressive: bool) -> Vec<std::ops::Range<u32>> {
-    if !progressive {
-        return std::iter::once(0..spp).collect();
-    }
+/// Samples of a pass when the render is not progressive: passes only set how often the work is
+/// kept (a multiple of the batch a full tile traces at once, so they do not change it).
+const PASS_SAMPLES: u32 = 16;
+/// A unit in flight is kept at least this often (besides when it finishes or is cancelled).
+const CHECKPOINT: Duration = Duration::from_secs(60);
+
+/// The sample ranges of the passes over `samples`: chunks of [`PASS_SAMPLES`], or, when the
+/// render is progressive, 1, 1, 2, 4, ... up to the end.
+fn passes(samples: std::ops::Range<u32>, progressive: bool) -> Vec<std::ops::Range<u32>> {
     let mut out = vec![];
-    let mut start = 0;
-    while start < spp {
-        let end = (start + start.max(1)).min(spp);
+    let mut start = samples.start;
+    while start < samples.end {
+        let len = if progressive {
+            start.max(1)
+        } else {
+            PASS_SAMPLES
+        };
+        let end = start.saturating_add(len).min(samples.end);
         out.push(start..end);
         start = end;
     }
@@ -110,14 +191,59 @@ fn noisy(s: &PixelSums, threshold: f64) -> bool {
     error > threshold * mean.max(1e-3)
 }
 
-/// One frame in flight: its tapes, the media around the camera, and per tile the pixel sums
-/// and which pixels still take samples.
+/// Whether a pixel takes the samples of `pass`, judged from its sums alone, so that a resumed
+/// render decides exactly as an uninterrupted one: it has taken every sample before the pass
+/// (a tile takes a pass whole or not at all) and, under adaptive sampling, is still noisy.
+fn takes(s: &PixelSums, start: u32, pass: &std::ops::Range<u32>, threshold: Option<f64>) -> bool {
+    let done = start + s.samples;
+    match threshold {
+        None => done < pass.end,
+        Some(t) => done == pass.start && noisy(s, t),
+    }
+}
+
+/// One unit in flight: its frame's tapes, the media around the camera, and per tile the
+/// pixel sums.
 struct Work {
-    index: u32,
+    unit: Unit,
     scene: FrameScene,
     initial: Stack,
     sums: Vec<Vec<PixelSums>>,
-    active: Vec<Vec<bool>>,
+    stats: Stats,
+    saved: Instant,
+}
+
+impl Work {
+    fn progress(&self, tiles: &[Tile], width: u32, height: u32, complete: bool) -> Progress {
+        let mut sums = vec![PixelSums::default(); width as usize * height as usize];
+        for (tile, ts) in tiles.iter().zip(&self.sums) {
+            for (k, s) in ts.iter().enumerate() {
+                let (x, y) = (
+                    tile.x + k as u32 % tile.width,
+                    tile.y + k as u32 / tile.width,
+                );
+                sums[(y * width + x) as usize] = *s;
+            }
+        }
+        Progress {
+            unit: self.unit.clone(),
+            sums,
+            stats: self.stats,
+            complete,
+        }
+    }
+}
+
+/// The per-tile sums of a row-major frame.
+fn tiled(sums: &[PixelSums], tiles: &[Tile], width: u32) -> Vec<Vec<PixelSums>> {
+    (tiles.iter())
+        .map(|t| {
+            (0..t.height)
+                .flat_map(|y| (0..t.width).map(move |x| ((t.y + y) * width + t.x + x) as usize))
+                .map(|i| sums[i])
+                .collect()
+        })
+        .collect()
 }
 
 /// What a caller watching a render hands in: a callback told how many samples each piece of
@@ -125,8 +251,8 @@ struct Work {
 #[derive(Clone, Copy)]
 pub struct Monitor<'a> {
     pub progress: &'a (dyn Fn(u64) + Sync),
-    /// Set it (from any thread) to stop: pieces of work not yet started are skipped and the
-    /// render returns [`Error::Cancelled`].
+    /// Set it (from any thread) to stop: pieces of work not yet started are skipped, the work
+    /// in flight is saved, and the render returns [`Error::Cancelled`].
     pub cancel: Option<&'a AtomicBool>,
 }
 
@@ -152,14 +278,57 @@ pub fn render(
     )
 }
 
-/// [`render`] that the caller can also stop, through `monitor.cancel`.
+/// Every sample of every frame, as units.
+pub fn whole(scene: &Scene) -> Vec<Unit> {
+    let r = &scene.render;
+    (0..r.frames)
+        .map(|frame| Unit {
+            frame,
+            samples: 0..r.spp,
+        })
+        .collect()
+}
+
+/// [`render`] in memory that the caller can also stop, through `monitor.cancel`.
 pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> Result<Rendered> {
     let start = Instant::now();
+    let store = MemoryStore::default();
+    let stats = render_units(scene, options, &whole(scene), &store, monitor)?;
+    let r = &scene.render;
+    let mut frames: Vec<Film> = (store.into_map().into_values())
+        .map(|p| Film::from_sums(r.width as usize, r.height as usize, &p.sums))
+        .collect();
+    let denoise_start = Instant::now();
+    let opts = crate::denoise::AtrousOptions::default();
+    pool(options)?.install(|| crate::denoise::denoise(&mut frames, r.denoise, &opts));
+    Ok(Rendered {
+        frames,
+        stats,
+        denoise_time: denoise_start.elapsed(),
+        elapsed: start.elapsed(),
+    })
+}
+
+fn pool(options: &Options) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
         builder = builder.num_threads(n);
     }
-    let pool = builder.build().map_err(Error::Threads)?;
+    builder.build().map_err(Error::Threads)
+}
+
+/// Render `units`, resuming each from what `store` holds of it and keeping the work in `store`
+/// as it finishes. Returns the counts of the work done in this call. Frames go through a few
+/// at a time, so memory does not grow with their number.
+pub fn render_units(
+    scene: &Scene,
+    options: &Options,
+    units: &[Unit],
+    store: &dyn Store,
+    monitor: Monitor,
+) -> Result<Stats> {
+    let start = Instant::now();
+    let pool = pool(options)?;
     let r = &scene.render;
     let compiled = Compiled::new(scene);
     let mut features = Features::of(&compiled);
@@ -190,67 +359,91 @@ pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> R
         })
         .collect();
     let progressive = options.time_budget.is_some() || options.noise_threshold.is_some();
-    let group = if progressive {
-        r.frames as usize
-    } else {
-        FRAME_GROUP
-    };
-    let mut frames = vec![];
+    let pixels = r.width as usize * r.height as usize;
+    // What earlier runs finished is skipped; what they left unfinished goes first.
+    let mut todo = vec![];
+    for u in units {
+        match store.load(u)? {
+            Some(p) if p.complete => {}
+            Some(p) if p.sums.len() == pixels => todo.push((u.clone(), Some(p))),
+            _ => todo.push((u.clone(), None)),
+        }
+    }
+    let group = pool.current_num_threads().clamp(1, FRAME_GROUP);
     let mut stats = Stats::default();
-    let all: Vec<u32> = (0..r.frames).collect();
-    for indices in all.chunks(group) {
-        let mut work: Vec<Work> = indices
-            .iter()
-            .map(|&f| {
-                let fs = FrameScene::new(scene, &compiled, features, frame_time(f, r.frames));
-                let initial = Stack::at_camera(&fs, r.epsilon);
-                let n = |t: &Tile| (t.width * t.height) as usize;
-                Work {
-                    index: f,
-                    scene: fs,
-                    initial,
-                    sums: tiles
-                        .iter()
-                        .map(|t| vec![PixelSums::default(); n(t)])
-                        .collect(),
-                    active: tiles.iter().map(|t| vec![true; n(t)]).collect(),
-                }
-            })
-            .collect();
-        let mut spent_per_sample = None;
-        for pass in passes(r.spp, progressive) {
-            let busy: usize = work
-                .iter()
-                .flat_map(|w| &w.active)
-                .map(|a| a.iter().filter(|x| **x).count())
-                .sum();
-            if busy == 0 {
-                break;
+    let mut spent_per_sample = None;
+    let mut remaining = todo.len();
+    let mut todo = todo.into_iter();
+    loop {
+        let batch: Vec<(Unit, Option<Progress>)> = todo.by_ref().take(group).collect();
+        if batch.is_empty() {
+            break;
+        }
+        // A time budget is shared out over the frames still to render.
+        let deadline = options.time_budget.map(|b| {
+            let left = b.saturating_sub(start.elapsed());
+            Instant::now() + left.mul_f64(batch.len() as f64 / remaining as f64)
+        });
+        remaining -= batch.len();
+        // The scene is not `Sync` (its fields share subtrees), so frames are prepared in turn.
+        let mut work: Vec<Work> = {
+            batch
+                .into_iter()
+                .map(|(unit, earlier)| {
+                    let t = frame_time(unit.frame, r.frames);
+                    let fs = FrameScene::new(scene, &compiled, features, t);
+                    let initial = Stack::at_camera(&fs, r.epsilon);
+                    let (sums, stats) = match earlier {
+                        Some(p) => (tiled(&p.sums, &tiles, r.width), p.stats),
+                        None => (
+                            (tiles.iter())
+                                .map(|t| vec![PixelSums::default(); (t.width * t.height) as usize])
+                                .collect(),
+                            Stats::default(),
+                        ),
+                    };
+                    Work {
+                        unit,
+                        scene: fs,
+                        initial,
+                        sums,
+                        stats,
+                        saved: Instant::now(),
+                    }
+                })
+                .collect()
+        };
+        let samples = work[0].unit.samples.clone();
+        debug_assert!(work.iter().all(|w| w.unit.samples == samples));
+        for pass in passes(samples.clone(), progressive) {
+            let takes = |s: &PixelSums| takes(s, samples.start, &pass, options.noise_threshold);
+            let busy: usize = (work.iter())
+                .flat_map(|w| w.sums.iter().flatten())
+                .filter(|s| takes(s))
+                .count();
+            if busy == 0 || monitor.cancelled() {
+                continue;
             }
-            if monitor.cancelled() {
-                return Err(Error::Cancelled);
-            }
-            if let (Some(budget), Some(per)) = (options.time_budget, spent_per_sample) {
-                let expected = per * (busy as f64 * pass.len() as f64);
-                if start.elapsed().as_secs_f64() + expected > budget.as_secs_f64() {
+            if let (Some(deadline), Some(per)) = (deadline, spent_per_sample) {
+                let expected = Duration::from_secs_f64(per * (busy as f64 * pass.len() as f64));
+                if Instant::now() + expected > deadline {
                     break;
                 }
             }
             let pass_start = Instant::now();
-            let taken: Stats = pool.install(|| {
-                work.par_iter_mut()
-                    .flat_map(|w| {
-                        let (scene, initial, index) = (&w.scene, w.initial, w.index);
-                        (w.sums.par_iter_mut().zip(&w.active).zip(&tiles)).map(
-                            move |((sums, active), tile)| {
-                                (scene, initial, index, sums, active, tile)
-                            },
-                        )
+            let taken: Vec<(usize, Stats)> = pool.install(|| {
+                (work.par_iter_mut().enumerate())
+                    .flat_map(|(i, w)| {
+                        let (scene, initial, frame) = (&w.scene, w.initial, w.unit.frame);
+                        (w.sums.par_iter_mut().zip(&tiles))
+                            .map(move |(sums, tile)| (i, scene, initial, frame, sums, tile))
                     })
                     .map_init(
-                        Scratch::default,
-                        |scratch, (fs, initial, f, sums, active, tile)| {
+                        || (Scratch::default(), Vec::new()),
+                        |(scratch, active), (i, fs, initial, f, sums, tile)| {
                             let mut st = Stats::default();
+                            active.clear();
+                            active.extend(sums.iter().map(takes));
                             if active.iter().any(|a| *a) && !monitor.cancelled() {
                                 integrator::render_tile(
                                     fs,
@@ -266,52 +459,37 @@ pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> R
                                 );
                             }
                             (monitor.progress)(st.samples);
-                            st
+                            (i, st)
                         },
                     )
-                    .reduce(Stats::default, |mut a, b| {
-                        a += b;
-                        a
-                    })
+                    .collect()
             });
-            if taken.samples > 0 {
-                spent_per_sample = Some(pass_start.elapsed().as_secs_f64() / taken.samples as f64);
+            let mut total = Stats::default();
+            for (i, st) in taken {
+                work[i].stats += st;
+                total += st;
             }
-            stats += taken;
+            if total.samples > 0 {
+                spent_per_sample = Some(pass_start.elapsed().as_secs_f64() / total.samples as f64);
+            }
+            stats += total;
             if monitor.cancelled() {
-                return Err(Error::Cancelled);
+                break;
             }
-            if let Some(threshold) = options.noise_threshold {
-                for w in &mut work {
-                    for (sums, active) in w.sums.iter().zip(&mut w.active) {
-                        for (s, a) in sums.iter().zip(active.iter_mut()) {
-                            *a = *a && noisy(s, threshold);
-                        }
-                    }
+            for w in &mut work {
+                if w.saved.elapsed() >= CHECKPOINT {
+                    store.save(&w.progress(&tiles, r.width, r.height, false))?;
+                    w.saved = Instant::now();
                 }
             }
         }
-        for w in work {
-            let mut film = Film::new(r.width as usize, r.height as usize);
-            for (tile, sums) in tiles.iter().zip(&w.sums) {
-                for (k, s) in sums.iter().enumerate() {
-                    let (x, y) = (
-                        tile.x + k as u32 % tile.width,
-                        tile.y + k as u32 / tile.width,
-                    );
-                    film.set((y * r.width + x) as usize, s);
-                }
-            }
-            frames.push(film);
+        let complete = !monitor.cancelled();
+        for w in &work {
+            store.save(&w.progress(&tiles, r.width, r.height, complete))?;
+        }
+        if !complete {
+            return Err(Error::Cancelled);
         }
     }
-    let denoise_start = Instant::now();
-    let options = crate::denoise::AtrousOptions::default();
-    pool.install(|| crate::denoise::denoise(&mut frames, r.denoise, &options));
-    Ok(Rendered {
-        frames,
-        stats,
-        denoise_time: denoise_start.elapsed(),
-        elapsed: start.elapsed(),
-    })
+    Ok(stats)
 }

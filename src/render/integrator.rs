@@ -55,7 +55,7 @@ pub struct Settings {
 }
 
 /// Counts for the summary.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
     pub samples: u64,
     /// Distance evaluations while marching.

@@ -4,6 +4,8 @@
 //! A module of its own, not part of `render`: the renderer fills films and `denoise` filters
 //! them, and neither needs the other.
 
+pub mod file;
+
 use crate::output::HdrImage;
 use glam::{DVec3, DVec4};
 
@@ -25,6 +27,17 @@ impl PixelSums {
         self.radiance += l;
         self.radiance_sq += l * l;
         self.samples += 1;
+    }
+
+    /// Add the sums of other samples of the same pixel (another sample range).
+    pub fn merge(&mut self, o: &PixelSums) {
+        self.radiance += o.radiance;
+        self.radiance_sq += o.radiance_sq;
+        self.albedo += o.albedo;
+        self.normal += o.normal;
+        self.position += o.position;
+        self.depth += o.depth;
+        self.samples += o.samples;
     }
 }
 
@@ -58,6 +71,15 @@ impl Film {
             depth: vec![0.0; n],
             samples: vec![0; n],
         }
+    }
+
+    /// A film of the means of a whole frame's sums (row-major).
+    pub fn from_sums(width: usize, height: usize, sums: &[PixelSums]) -> Film {
+        let mut film = Film::new(width, height);
+        for (i, s) in sums.iter().enumerate() {
+            film.set(i, s);
+        }
+        film
     }
 
     /// Store a pixel's means from its sums.

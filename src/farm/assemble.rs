@@ -1,0 +1,188 @@
+//! Films into final frames: each frame's sample ranges summed, the frames denoised across
+//! neighbours, and encoded. A render on one machine and a merge of shards both end here, so
+//! they make the same bytes.
+
+use super::FilmMeta;
+use super::films::{self, file_name};
+use crate::error::{Error, Result};
+use crate::film::{Film, PixelSums};
+use crate::output::{self, OutputSettings, Written};
+use crate::render::driver::Unit;
+use crate::render::integrator::Stats;
+use crate::scene::Denoise;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// The films of a render's frames, found and checked.
+pub struct Films {
+    /// What every film shares (the first one's meta).
+    pub meta: FilmMeta,
+    /// Each frame's film files, in sample order.
+    pub frames: BTreeMap<u32, Vec<PathBuf>>,
+    /// The counts of all the work in them.
+    pub stats: Stats,
+}
+
+impl Films {
+    /// The films of `units`, all in `dir` (a render's own).
+    pub fn of_units(dir: &Path, units: &[Unit], spp: u32) -> Result<Films> {
+        let paths: Vec<PathBuf> = units.iter().map(|u| dir.join(file_name(u, spp))).collect();
+        let metas = (paths.iter())
+            .map(|p| films::read_meta(p))
+            .collect::<Result<Vec<_>>>()?;
+        Films::new(paths.into_iter().zip(metas).collect())
+    }
+
+    /// Every film in `dirs` (the shards of one render), checked to be all of it: the same
+    /// fingerprint, every shard's every unit present and finished.
+    pub fn scan(dirs: &[PathBuf]) -> Result<Films> {
+        let mut found: BTreeMap<String, (PathBuf, FilmMeta)> = BTreeMap::new();
+        for dir in dirs {
+            let entries = std::fs::read_dir(dir).map_err(|source| Error::ReadFilms {
+                path: dir.clone(),
+                source,
+            })?;
+            let mut names: Vec<(String, PathBuf)> = entries
+                .filter_map(|e| e.ok())
+                .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path()))
+                .filter(|(n, _)| n.starts_with("frame_") && n.ends_with(".exr"))
+                .collect();
+            names.sort();
+            for (name, path) in names {
+                let meta = films::read_meta(&path)?;
+                if let Some((first, _)) = found.get(&name) {
+                    return Err(Error::MergeDuplicate {
+                        name,
+                        first: first.clone(),
+                        second: path,
+                    });
+                }
+                found.insert(name, (path, meta));
+            }
+        }
+        let Some((_, (_, first))) = found.iter().next() else {
+            return Err(Error::NoFilms {
+                dirs: dirs.to_vec(),
+            });
+        };
+        let first = first.clone();
+        for (path, meta) in found.values() {
+            if meta.fingerprint != first.fingerprint || meta.part.frames != first.part.frames {
+                let fp = super::Fingerprint {
+                    digest: first.fingerprint.clone(),
+                    description: first.description.clone(),
+                };
+                let (ours, theirs) = (fp.difference(&meta.description))
+                    .unwrap_or_else(|| (format!("frames {:?}", first.part.frames), format!("frames {:?}", meta.part.frames)));
+                return Err(Error::FilmMismatch {
+                    path: path.clone(),
+                    ours,
+                    theirs,
+                });
+            }
+        }
+        // Every shard's units must be there and finished.
+        let spp = first.spp;
+        let n = found.values().map(|(_, m)| m.part.shard[1]).max().unwrap_or(1);
+        let mut problems = vec![];
+        let mut chosen = vec![];
+        for k in 0..n {
+            let part = super::plan::Part {
+                shard: [k, n],
+                ..first.part
+            };
+            for unit in part.units(spp) {
+                match found.get(&file_name(&unit, spp)) {
+                    None => problems.push(format!(
+                        "{} is missing (shard {k}/{n} renders it)",
+                        file_name(&unit, spp)
+                    )),
+                    Some((path, meta)) if !meta.complete => problems.push(format!(
+                        "{} is unfinished (run shard {k}/{n} again to resume it)",
+                        path.display()
+                    )),
+                    Some(found) => chosen.push(found.clone()),
+                }
+            }
+        }
+        if !problems.is_empty() {
+            return Err(Error::MergeIncomplete { problems });
+        }
+        Films::new(chosen)
+    }
+
+    fn new(list: Vec<(PathBuf, FilmMeta)>) -> Result<Films> {
+        let meta = list.first().map(|(_, m)| m.clone()).ok_or(Error::NoFilms { dirs: vec![] })?;
+        let mut frames: BTreeMap<u32, Vec<(u32, PathBuf)>> = BTreeMap::new();
+        let mut stats = Stats::default();
+        for (path, m) in list {
+            stats += m.stats;
+            frames.entry(m.frame).or_default().push((m.samples[0], path));
+        }
+        Ok(Films {
+            meta,
+            frames: (frames.into_iter())
+                .map(|(f, mut v)| {
+                    v.sort();
+                    (f, v.into_iter().map(|(_, p)| p).collect())
+                })
+                .collect(),
+            stats,
+        })
+    }
+
+    /// Frame `frame`'s sums: its sample ranges added in order.
+    fn sums(&self, paths: &[PathBuf]) -> Result<Vec<PixelSums>> {
+        let mut total: Option<Vec<PixelSums>> = None;
+        for path in paths {
+            let (_, film) = films::read(path)?;
+            match &mut total {
+                None => total = Some(film.sums),
+                Some(t) => {
+                    for (a, b) in t.iter_mut().zip(&film.sums) {
+                        a.merge(b);
+                    }
+                }
+            }
+        }
+        Ok(total.unwrap_or_default())
+    }
+}
+
+/// How films are finished into images.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Finish {
+    pub denoise: Denoise,
+    pub output: OutputSettings,
+}
+
+impl Finish {
+    /// The settings the films were rendered with.
+    pub fn of(meta: &FilmMeta) -> Finish {
+        use clap::ValueEnum;
+        Finish {
+            denoise: Denoise::from_str(&meta.denoise, true).unwrap_or(Denoise::Atrous),
+            output: OutputSettings {
+                exposure: meta.exposure,
+                fps: meta.fps,
+            },
+        }
+    }
+}
+
+/// Denoise and encode the frames of `films` to `out`; numbered files carry the frames' own
+/// numbers when the animation has more than one frame.
+pub fn assemble(films: &Films, finish: &Finish, out: &Path) -> Result<Written> {
+    let (w, h) = (films.meta.width as usize, films.meta.height as usize);
+    let mut frames = vec![];
+    let mut numbers = vec![];
+    for (&f, paths) in &films.frames {
+        frames.push(Film::from_sums(w, h, &films.sums(paths)?));
+        numbers.push(f as usize);
+    }
+    let opts = crate::denoise::AtrousOptions::default();
+    crate::denoise::denoise(&mut frames, finish.denoise, &opts);
+    let images: Vec<_> = frames.iter().map(Film::image).collect();
+    let numbered = films.meta.frames > 1;
+    Ok(output::write_frames(out, &numbers, &images, &finish.output, numbered)?)
+}

@@ -1,0 +1,223 @@
+//! A directory of film files: where a render keeps its units as they finish, and where a
+//! resumed render or `merge` finds them.
+//!
+//! A unit of all of a frame's samples is `frame_0003.exr`; a sample range of it (a sample
+//! shard) is `frame_0003.samples_16-32.exr`. Every file carries the render's fingerprint; a
+//! film of another scene or other settings is refused, never mixed in.
+
+use super::plan::Part;
+use super::{FORMAT, FilmMeta, Fingerprint};
+use crate::error::{Error, Result};
+use crate::film::file::FilmFile;
+use crate::render::driver::{Options, Progress, Store, Unit};
+use crate::scene::Scene;
+use std::path::{Path, PathBuf};
+
+/// The file name of `unit` when every pixel takes `spp` samples in all.
+pub fn file_name(unit: &Unit, spp: u32) -> String {
+    if unit.samples == (0..spp) {
+        format!("frame_{:04}.exr", unit.frame)
+    } else {
+        format!(
+            "frame_{:04}.samples_{}-{}.exr",
+            unit.frame, unit.samples.start, unit.samples.end
+        )
+    }
+}
+
+/// What a film directory holds of a render's units.
+#[derive(Debug, Default)]
+pub struct Survey {
+    pub complete: usize,
+    pub partial: usize,
+    /// The finished units.
+    pub finished: Vec<Unit>,
+    /// Samples taken in the part-done units.
+    pub samples: u64,
+}
+
+/// A film directory for one render (one part of it).
+pub struct FilmDir {
+    dir: PathBuf,
+    fingerprint: Fingerprint,
+    /// The fields every film of this render shares.
+    template: FilmMeta,
+    spp: u32,
+}
+
+impl FilmDir {
+    /// Open (and create) `dir` for rendering `part` of `scene`, named `scene_name` in messages.
+    pub fn open(
+        dir: &Path,
+        scene: &Scene,
+        scene_name: &str,
+        options: &Options,
+        part: Part,
+    ) -> Result<FilmDir> {
+        std::fs::create_dir_all(dir).map_err(|source| Error::CreateDirectory {
+            path: dir.to_path_buf(),
+            source,
+        })?;
+        let r = &scene.render;
+        let fingerprint = Fingerprint::of(scene, options);
+        let template = FilmMeta {
+            format: FORMAT,
+            fingerprint: fingerprint.digest.clone(),
+            description: fingerprint.description.clone(),
+            scene: scene_name.to_string(),
+            frame: 0,
+            frames: r.frames,
+            samples: [0, r.spp],
+            spp: r.spp,
+            width: r.width,
+            height: r.height,
+            complete: false,
+            stats: Default::default(),
+            part,
+            denoise: r.denoise.name().to_string(),
+            exposure: r.exposure,
+            fps: r.fps,
+        };
+        Ok(FilmDir {
+            dir: dir.to_path_buf(),
+            fingerprint,
+            template,
+            spp: r.spp,
+        })
+    }
+
+    pub fn dir(&self) -> &Path {
+        &self.dir
+    }
+
+    pub fn path_of(&self, unit: &Unit) -> PathBuf {
+        self.dir.join(file_name(unit, self.spp))
+    }
+
+    /// What earlier runs left of `units`, checking that it belongs to this render.
+    pub fn survey(&self, units: &[Unit]) -> Result<Survey> {
+        let mut s = Survey::default();
+        for u in units {
+            let path = self.path_of(u);
+            if !path.exists() {
+                continue;
+            }
+            let meta = read_meta(&path)?;
+            self.check(&path, &meta)?;
+            if meta.complete {
+                s.complete += 1;
+                s.finished.push(u.clone());
+            } else {
+                s.partial += 1;
+                s.samples += meta.stats.samples;
+            }
+        }
+        Ok(s)
+    }
+
+    /// Refuse a film made from another scene or other settings, saying what differs.
+    fn check(&self, path: &Path, meta: &FilmMeta) -> Result<()> {
+        if meta.fingerprint == self.fingerprint.digest {
+            return Ok(());
+        }
+        let (ours, theirs) = (self.fingerprint)
+            .difference(&meta.description)
+            .unwrap_or_else(|| ("this render".into(), "another render".into()));
+        Err(Error::FilmMismatch {
+            path: path.to_path_buf(),
+            ours,
+            theirs,
+        })
+    }
+}
+
+/// Read a film file and its meta.
+pub fn read(path: &Path) -> Result<(FilmMeta, FilmFile)> {
+    let film = FilmFile::read(path)?;
+    let meta = parse(path, &film.header)?;
+    if (meta.width as usize, meta.height as usize) != (film.width, film.height) {
+        return Err(Error::FilmHeader {
+            path: path.to_path_buf(),
+            message: format!(
+                "its header says {}x{} but its pixels are {}x{}",
+                meta.width, meta.height, film.width, film.height
+            ),
+        });
+    }
+    Ok((meta, film))
+}
+
+/// A film's meta from its header, without reading its pixels.
+pub fn read_meta(path: &Path) -> Result<FilmMeta> {
+    let unreadable = |message: String| Error::FilmHeader {
+        path: path.to_path_buf(),
+        message,
+    };
+    let meta = exr::meta::MetaData::read_from_file(path, false)
+        .map_err(|e| unreadable(format!("it is not a readable OpenEXR file ({e})")))?;
+    let text = (meta.headers.first())
+        .and_then(|h| h.own_attributes.other.get(&exr::prelude::Text::from("hyperslice")))
+        .and_then(|a| match a {
+            exr::prelude::AttributeValue::Text(t) => Some(t.to_string()),
+            _ => None,
+        })
+        .ok_or_else(|| unreadable("it is not a hyperslice film (no `hyperslice` header)".into()))?;
+    parse(path, &text)
+}
+
+fn parse(path: &Path, header: &str) -> Result<FilmMeta> {
+    let meta: FilmMeta = serde_json::from_str(header).map_err(|e| Error::FilmHeader {
+        path: path.to_path_buf(),
+        message: format!("its header does not describe a film ({e})"),
+    })?;
+    if meta.format != FORMAT {
+        return Err(Error::FilmHeader {
+            path: path.to_path_buf(),
+            message: format!(
+                "it is film format {}, and this hyperslice reads format {FORMAT}",
+                meta.format
+            ),
+        });
+    }
+    Ok(meta)
+}
+
+impl Store for FilmDir {
+    fn load(&self, unit: &Unit) -> Result<Option<Progress>> {
+        let path = self.path_of(unit);
+        if !path.exists() {
+            return Ok(None);
+        }
+        let (meta, film) = read(&path)?;
+        self.check(&path, &meta)?;
+        if meta.frame != unit.frame || meta.samples != [unit.samples.start, unit.samples.end] {
+            return Err(Error::FilmHeader {
+                path,
+                message: format!(
+                    "it holds frame {} samples {}..{}, not what its name says",
+                    meta.frame, meta.samples[0], meta.samples[1]
+                ),
+            });
+        }
+        Ok(Some(Progress {
+            unit: unit.clone(),
+            sums: film.sums,
+            stats: meta.stats,
+            complete: meta.complete,
+        }))
+    }
+
+    fn save(&self, p: &Progress) -> Result<()> {
+        let meta = FilmMeta {
+            frame: p.unit.frame,
+            samples: [p.unit.samples.start, p.unit.samples.end],
+            complete: p.complete,
+            stats: p.stats,
+            ..self.template.clone()
+        };
+        let header = serde_json::to_string(&meta).expect("film meta serialises");
+        let (w, h) = (meta.width as usize, meta.height as usize);
+        let bytes = crate::film::file::encode(&header, w, h, &p.sums)?;
+        Ok(crate::output::write_atomic(&self.path_of(&p.unit), &bytes)?)
+    }
+}

@@ -1,0 +1,108 @@
+//! Long renders as a render farm runs them: the work split into units (frames, or sample ranges
+//! of frames), kept in film files as it finishes so that a render resumes where it stopped,
+//! split into shards for several machines, and merged into exactly the image one machine makes.
+//!
+//! - [`plan`]: which units a render (or the K-th of N shards of it) takes.
+//! - [`films`]: a directory of film files, the [`Store`](crate::render::driver::Store) a render
+//!   keeps its work in, with a fingerprint of the scene and settings in every file.
+//! - [`assemble`]: films into final frames: sample ranges summed, denoised across frames, and
+//!   encoded, one frame at a time.
+
+pub mod assemble;
+pub mod films;
+pub mod plan;
+
+use crate::render::driver::Options;
+use crate::render::integrator::Stats;
+use crate::scene::{Denoise, Quality, Scene};
+use serde::{Deserialize, Serialize};
+use sha2::{Digest, Sha256};
+
+/// Bump when the meaning of a film file changes.
+const FORMAT: u32 = 1;
+
+/// What a film file holds, stored as JSON in its header.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FilmMeta {
+    pub format: u32,
+    /// A digest of everything that decides the film's pixels (see [`Fingerprint`]).
+    pub fingerprint: String,
+    /// The text the fingerprint digests, to say what differs when two films disagree.
+    pub description: String,
+    /// The scene file's name, for messages.
+    pub scene: String,
+    pub frame: u32,
+    /// Frames of the whole animation.
+    pub frames: u32,
+    /// The sample range this film accumulates, `[start, end)`.
+    pub samples: [u32; 2],
+    /// Samples per pixel of the whole render.
+    pub spp: u32,
+    pub width: u32,
+    pub height: u32,
+    /// Every pass ran: the film is final.
+    pub complete: bool,
+    pub stats: Stats,
+    /// The part of the render this film belongs to (what `merge` checks is all there).
+    pub part: plan::Part,
+    /// How the frames are finished: these do not change the films, so they are not in the
+    /// fingerprint, and `merge` may override them.
+    pub denoise: String,
+    pub exposure: f64,
+    pub fps: f64,
+}
+
+/// What decides a render's pixels: the scene (shapes, materials, camera, and the render
+/// settings that change samples) and the options that change the estimator; not the denoiser,
+/// exposure, frame rate, threads or time budget, which only finish or pace the same samples.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Fingerprint {
+    pub digest: String,
+    pub description: String,
+}
+
+impl Fingerprint {
+    pub fn of(scene: &Scene, options: &Options) -> Fingerprint {
+        let mut s = scene.clone();
+        let r = &mut s.render;
+        let defaults = crate::scene::RenderSettings::default();
+        (r.denoise, r.quality, r.fps, r.exposure, r.threads) = (
+            Denoise::None,
+            Quality::Custom,
+            defaults.fps,
+            defaults.exposure,
+            0,
+        );
+        let description = format!(
+            "hyperslice {} film format {FORMAT}\n\
+             options light_sampling {}  sampler {:?}  roulette_from {}  general {}  noise_threshold {:?}\n\
+             {s}",
+            env!("CARGO_PKG_VERSION"),
+            options.light_sampling,
+            options.sampler,
+            options.roulette_from,
+            options.general,
+            options.noise_threshold,
+        );
+        let digest = Sha256::digest(description.as_bytes());
+        Fingerprint {
+            digest: digest.iter().map(|b| format!("{b:02x}")).collect(),
+            description,
+        }
+    }
+
+    /// The first line where `other`'s description differs from this one's, for messages.
+    pub fn difference(&self, other: &str) -> Option<(String, String)> {
+        let (mut a, mut b) = (self.description.lines(), other.lines());
+        loop {
+            match (a.next(), b.next()) {
+                (None, None) => return None,
+                (x, y) if x != y => {
+                    let show = |l: Option<&str>| l.unwrap_or("(nothing)").trim().to_string();
+                    return Some((show(x), show(y)));
+                }
+                _ => {}
+            }
+        }
+    }
+}
