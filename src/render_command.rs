@@ -6,10 +6,10 @@ use hyperslice::output::{self, OutputSettings};
 use hyperslice::render::driver::{self, Options};
 use hyperslice::render::sampler::SamplerKind;
 use hyperslice::scene::{Denoise, Quality, RenderSettings, Scene};
+use indicatif::HumanCount;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use indicatif::HumanCount;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -356,7 +356,11 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
             earlier.partial
         );
     }
-    let todo: Vec<_> = units.iter().filter(|u| !earlier.finished.contains(u)).cloned().collect();
+    let todo: Vec<_> = units
+        .iter()
+        .filter(|u| !earlier.finished.contains(u))
+        .cloned()
+        .collect();
     let total: u64 = (todo.iter())
         .map(|u| r.width as u64 * r.height as u64 * u.samples.len() as u64)
         .sum::<u64>()
@@ -366,8 +370,10 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     let bar = if progressive {
         let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
         bar.set_style(
-            ProgressStyle::with_template("{spinner} {elapsed_precise} {human_pos} samples, {per_sec:.0} {msg}")
-                .expect("a valid template"),
+            ProgressStyle::with_template(
+                "{spinner} {elapsed_precise} {human_pos} samples, {per_sec:.0} {msg}",
+            )
+            .expect("a valid template"),
         );
         bar
     } else {
@@ -431,7 +437,11 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     let finish_start = Instant::now();
     eprintln!(
         "{} {}",
-        if r.denoise == Denoise::None { "encoding" } else { "denoising and encoding" },
+        if r.denoise == Denoise::None {
+            "encoding"
+        } else {
+            "denoising and encoding"
+        },
         plural(units.len(), "frame")
     );
     let finish = assemble::Finish {

@@ -72,8 +72,12 @@ impl Films {
                     digest: first.fingerprint.clone(),
                     description: first.description.clone(),
                 };
-                let (ours, theirs) = (fp.difference(&meta.description))
-                    .unwrap_or_else(|| (format!("frames {:?}", first.part.frames), format!("frames {:?}", meta.part.frames)));
+                let (ours, theirs) = (fp.difference(&meta.description)).unwrap_or_else(|| {
+                    (
+                        format!("frames {:?}", first.part.frames),
+                        format!("frames {:?}", meta.part.frames),
+                    )
+                });
                 return Err(Error::FilmMismatch {
                     path: path.clone(),
                     ours,
@@ -83,7 +87,11 @@ impl Films {
         }
         // Every shard's units must be there and finished.
         let spp = first.spp;
-        let n = found.values().map(|(_, m)| m.part.shard[1]).max().unwrap_or(1);
+        let n = found
+            .values()
+            .map(|(_, m)| m.part.shard[1])
+            .max()
+            .unwrap_or(1);
         let mut problems = vec![];
         let mut chosen = vec![];
         for k in 0..n {
@@ -112,12 +120,18 @@ impl Films {
     }
 
     fn new(list: Vec<(PathBuf, FilmMeta)>) -> Result<Films> {
-        let meta = list.first().map(|(_, m)| m.clone()).ok_or(Error::NoFilms { dirs: vec![] })?;
+        let meta = list
+            .first()
+            .map(|(_, m)| m.clone())
+            .ok_or(Error::NoFilms { dirs: vec![] })?;
         let mut frames: BTreeMap<u32, Vec<(u32, PathBuf)>> = BTreeMap::new();
         let mut stats = Stats::default();
         for (path, m) in list {
             stats += m.stats;
-            frames.entry(m.frame).or_default().push((m.samples[0], path));
+            frames
+                .entry(m.frame)
+                .or_default()
+                .push((m.samples[0], path));
         }
         Ok(Films {
             meta,
@@ -184,5 +198,11 @@ pub fn assemble(films: &Films, finish: &Finish, out: &Path) -> Result<Written> {
     crate::denoise::denoise(&mut frames, finish.denoise, &opts);
     let images: Vec<_> = frames.iter().map(Film::image).collect();
     let numbered = films.meta.frames > 1;
-    Ok(output::write_frames(out, &numbers, &images, &finish.output, numbered)?)
+    Ok(output::write_frames(
+        out,
+        &numbers,
+        &images,
+        &finish.output,
+        numbered,
+    )?)
 }

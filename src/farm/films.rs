@@ -156,7 +156,11 @@ pub fn read_meta(path: &Path) -> Result<FilmMeta> {
     let meta = exr::meta::MetaData::read_from_file(path, false)
         .map_err(|e| unreadable(format!("it is not a readable OpenEXR file ({e})")))?;
     let text = (meta.headers.first())
-        .and_then(|h| h.own_attributes.other.get(&exr::prelude::Text::from("hyperslice")))
+        .and_then(|h| {
+            h.own_attributes
+                .other
+                .get(&exr::prelude::Text::from("hyperslice"))
+        })
         .and_then(|a| match a {
             exr::prelude::AttributeValue::Text(t) => Some(t.to_string()),
             _ => None,

@@ -46,7 +46,8 @@ const SUMS: [&str; 18] = [
 fn flatten(s: &PixelSums) -> [f64; 18] {
     let (r, q, a, n, p) = (s.radiance, s.radiance_sq, s.albedo, s.normal, s.position);
     [
-        r.x, r.y, r.z, q.x, q.y, q.z, a.x, a.y, a.z, n.x, n.y, n.z, n.w, p.x, p.y, p.z, p.w, s.depth,
+        r.x, r.y, r.z, q.x, q.y, q.z, a.x, a.y, a.z, n.x, n.y, n.z, n.w, p.x, p.y, p.z, p.w,
+        s.depth,
     ]
 }
 
@@ -126,10 +127,9 @@ pub fn encode(
         ));
     }
     let mut attributes = LayerAttributes::default();
-    attributes.other.insert(
-        Text::from(HEADER),
-        AttributeValue::Text(Text::from(header)),
-    );
+    attributes
+        .other
+        .insert(Text::from(HEADER), AttributeValue::Text(Text::from(header)));
     let layer = Layer::new(
         (width, height),
         attributes,

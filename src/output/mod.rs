@@ -610,11 +610,18 @@ pub fn write_frames(
     }
     let mut files = vec![];
     for (&n, f) in numbers.iter().zip(frames) {
-        let target = if numbered { numbered_path(path, n) } else { path.to_path_buf() };
+        let target = if numbered {
+            numbered_path(path, n)
+        } else {
+            path.to_path_buf()
+        };
         write(&target, std::slice::from_ref(f), settings)?;
         files.push(target);
     }
-    Ok(Written { files, gif_psnr: None })
+    Ok(Written {
+        files,
+        gif_psnr: None,
+    })
 }
 
 fn too_large(path: &Path, format: Format, f: &HdrImage, limit: usize) -> OutputError {

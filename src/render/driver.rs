@@ -137,10 +137,16 @@ impl MemoryStore {
 
 impl Store for MemoryStore {
     fn load(&self, unit: &Unit) -> Result<Option<Progress>> {
-        Ok(self.0.lock().unwrap_or_else(|e| e.into_inner()).get(unit).cloned())
+        Ok(self
+            .0
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .get(unit)
+            .cloned())
     }
     fn save(&self, progress: &Progress) -> Result<()> {
-        (self.0.lock().unwrap_or_else(|e| e.into_inner())).insert(progress.unit.clone(), progress.clone());
+        (self.0.lock().unwrap_or_else(|e| e.into_inner()))
+            .insert(progress.unit.clone(), progress.clone());
         Ok(())
     }
 }
