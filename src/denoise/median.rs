@@ -34,50 +34,57 @@ pub fn median(frames: &mut [Film]) {
 /// The median-filtered colour of every frame, without changing the films (`None` for a film
 /// whose colour buffer disagrees with its size).
 pub fn medians(frames: &[Film]) -> Vec<Option<Vec<DVec3>>> {
-    let ok = |f: &Film| f.width.checked_mul(f.height) == Some(f.color.len());
     (0..frames.len())
         .map(|k| {
-            let f = &frames[k];
-            if !ok(f) {
-                return None;
-            }
-            // The frames of the window: k - 1 ..= k + 1 where they exist and match in size.
-            let window: Vec<&Film> = (k.saturating_sub(1)..=(k + 1).min(frames.len() - 1))
-                .map(|j| &frames[j])
-                .filter(|g| ok(g) && g.width == f.width && g.height == f.height)
-                .collect();
-            let (w, h) = (f.width, f.height);
-            let mut out = f.color.clone();
-            if w == 0 {
-                return Some(out);
-            }
-            out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
-                let ys = y.saturating_sub(1)..=(y + 1).min(h - 1);
-                for (x, px) in row.iter_mut().enumerate() {
-                    let xs = x.saturating_sub(1)..=(x + 1).min(w - 1);
-                    for c in 0..3 {
-                        let mut vals = [0.0f64; 27];
-                        let mut n = 0;
-                        for g in &window {
-                            for qy in ys.clone() {
-                                for qx in xs.clone() {
-                                    let v = g.color[qy * w + qx][c];
-                                    if v.is_finite() {
-                                        vals[n] = v;
-                                        n += 1;
-                                    }
-                                }
+            let window = k.saturating_sub(1)..(k + 2).min(frames.len());
+            median_at(&frames[window.clone()], k - window.start)
+        })
+        .collect()
+}
+
+/// The median-filtered colour of `frames[centre]`, whose neighbours in time are the other
+/// frames of `frames` (at most one on each side); `None` for a film whose colour buffer
+/// disagrees with its size. A stream of frames needs to hold only three.
+pub fn median_at(frames: &[Film], centre: usize) -> Option<Vec<DVec3>> {
+    let ok = |f: &Film| f.width.checked_mul(f.height) == Some(f.color.len());
+    let f = &frames[centre];
+    if !ok(f) {
+        return None;
+    }
+    // The frames of the window that match in size.
+    let window: Vec<&Film> = (frames.iter())
+        .filter(|g| ok(g) && g.width == f.width && g.height == f.height)
+        .collect();
+    let (w, h) = (f.width, f.height);
+    let mut out = f.color.clone();
+    if w == 0 {
+        return Some(out);
+    }
+    out.par_chunks_mut(w).enumerate().for_each(|(y, row)| {
+        let ys = y.saturating_sub(1)..=(y + 1).min(h - 1);
+        for (x, px) in row.iter_mut().enumerate() {
+            let xs = x.saturating_sub(1)..=(x + 1).min(w - 1);
+            for c in 0..3 {
+                let mut vals = [0.0f64; 27];
+                let mut n = 0;
+                for g in &window {
+                    for qy in ys.clone() {
+                        for qx in xs.clone() {
+                            let v = g.color[qy * w + qx][c];
+                            if v.is_finite() {
+                                vals[n] = v;
+                                n += 1;
                             }
-                        }
-                        if let Some(m) = median_of(&mut vals[..n]) {
-                            px[c] = m;
                         }
                     }
                 }
-            });
-            Some(out)
-        })
-        .collect()
+                if let Some(m) = median_of(&mut vals[..n]) {
+                    px[c] = m;
+                }
+            }
+        }
+    });
+    Some(out)
 }
 
 /// The median of finite values (mean of the middle two for an even count); `None` when empty.

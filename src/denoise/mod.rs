@@ -18,7 +18,7 @@ pub mod median;
 use crate::film::Film;
 use crate::scene::Denoise;
 
-pub use atrous::{AtrousOptions, Temporal};
+pub use atrous::{AtrousOptions, Scales, Temporal};
 
 /// Denoise every frame's `color` in place; `opts` is used by [`Denoise::Atrous`] only.
 pub fn denoise(frames: &mut [Film], filter: Denoise, opts: &AtrousOptions) {
@@ -26,6 +26,79 @@ pub fn denoise(frames: &mut [Film], filter: Denoise, opts: &AtrousOptions) {
         Denoise::None => {}
         Denoise::Median => median::median(frames),
         Denoise::Atrous => atrous::atrous(frames, opts),
+    }
+}
+
+/// A denoiser over a stream of frames pushed in order: it holds only the frames the next
+/// output depends on, so memory does not grow with the length of the animation, and its
+/// output is the same as [`denoise`]'s on all the frames at once.
+pub struct Denoiser {
+    kind: Kind,
+    frames: usize,
+    pushed: usize,
+    /// The next frame to hand out.
+    out: usize,
+}
+
+enum Kind {
+    None,
+    /// The frames not yet handed out and the one before them, unfiltered.
+    Median(std::collections::VecDeque<Film>),
+    Atrous(Box<atrous::Stream>),
+}
+
+impl Denoiser {
+    /// A denoiser for `frames` frames. `scales` are the a-trous scales of all of them
+    /// ([`Scales::of`] of every frame, combined with [`Scales::max`]); the other filters
+    /// ignore them (see [`Denoiser::needs_scales`]).
+    pub fn new(filter: Denoise, frames: usize, opts: &AtrousOptions, scales: Scales) -> Self {
+        let kind = match filter {
+            Denoise::None => Kind::None,
+            Denoise::Median => Kind::Median(Default::default()),
+            Denoise::Atrous => Kind::Atrous(Box::new(atrous::Stream::new(frames, opts, scales))),
+        };
+        Denoiser {
+            kind,
+            frames,
+            pushed: 0,
+            out: 0,
+        }
+    }
+
+    /// Whether `filter` needs the scales of all frames before the first is pushed.
+    pub fn needs_scales(filter: Denoise) -> bool {
+        filter == Denoise::Atrous
+    }
+
+    /// Take the next frame; returns the frames now finished, in order.
+    pub fn push(&mut self, film: Film) -> Vec<Film> {
+        self.pushed += 1;
+        let last = self.pushed == self.frames;
+        match &mut self.kind {
+            Kind::None => vec![film],
+            Kind::Atrous(s) => s.push(film).into_iter().map(|f| f.film).collect(),
+            Kind::Median(held) => {
+                held.push_back(film);
+                // `held` is frames `first..pushed`: the next to hand out and the one before
+                // it; a frame is done once the one after it is in, or at the end.
+                let mut done = vec![];
+                while self.out < self.pushed && (self.out + 1 < self.pushed || last) {
+                    let first = self.pushed - held.len();
+                    let (centre, n) = (self.out - first, held.len());
+                    let window = &held.make_contiguous()[..(centre + 2).min(n)];
+                    let mut f = window[centre].clone();
+                    if let Some(c) = median::median_at(window, centre) {
+                        f.color = c;
+                    }
+                    done.push(f);
+                    self.out += 1;
+                    if self.out - first > 1 {
+                        held.pop_front();
+                    }
+                }
+                done
+            }
+        }
     }
 }
 
@@ -43,7 +116,9 @@ pub(crate) fn consistent(f: &Film) -> bool {
     }
 }
 
-/// Whether frames `a` and `b` may exchange pixels (both consistent, same size).
+/// Whether frames `a` and `b` may exchange pixels (both consistent, same size); the streaming
+/// filters judge it from the sizes they keep.
+#[cfg(test)]
 pub(crate) fn compatible(a: &Film, b: &Film) -> bool {
     consistent(a) && consistent(b) && a.width == b.width && a.height == b.height
 }

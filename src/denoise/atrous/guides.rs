@@ -106,27 +106,54 @@ fn is_missed(n: DVec4) -> bool {
     n.length_squared() == 0.0
 }
 
-/// Every frame's guides (`None` for a film whose buffers disagree with its size), and the
-/// scale `scale_c` of the colours: their variances are stored times `scale_c^2`, so the
-/// colours the taps compare must be scaled alike.
-pub(super) fn of_frames(frames: &[Film], opts: &AtrousOptions) -> (Vec<Option<Guides>>, f64) {
-    let prepared: Vec<Option<Prepared>> = frames
-        .par_iter()
-        .map(|f| consistent(f).then(|| prepare(f, opts)))
-        .collect();
-    // Scales of the positions (and footprints) and of the colours (and standard errors).
-    let largest =
-        |f: &dyn Fn(&Prepared) -> f64| prepared.iter().flatten().map(f).fold(0.0, f64::max);
-    let scale_x = scale_for(largest(&|p| {
-        p.fx.iter().chain(&p.fy).copied().fold(0.0, f64::max)
-    }));
-    let scale_c = scale_for(largest(&|p| p.var.iter().copied().fold(0.0, f64::max)).sqrt());
-    let guides = frames
-        .par_iter()
-        .zip(prepared)
-        .map(|(f, p)| p.map(|p| pack(f, p, scale_x, scale_c)))
-        .collect();
-    (guides, scale_c)
+
+/// The largest footprint and colour variance of a set of frames, which set the scales the
+/// guides are stored at. Neighbouring frames' guides are compared, so every frame of an
+/// animation is stored at the same scales: a streaming filter learns them in a pass over the
+/// frames before filtering.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Scales {
+    footprint: f64,
+    variance: f64,
+}
+
+impl Scales {
+    /// The scales of one frame (zero for a film whose buffers disagree with its size).
+    pub fn of(film: &Film, opts: &AtrousOptions) -> Scales {
+        if consistent(film) {
+            Scales::of_prepared(&prepare(film, opts))
+        } else {
+            Scales::default()
+        }
+    }
+
+    fn of_prepared(p: &Prepared) -> Scales {
+        Scales {
+            footprint: p.fx.iter().chain(&p.fy).copied().fold(0.0, f64::max),
+            variance: p.var.iter().copied().fold(0.0, f64::max),
+        }
+    }
+
+    /// The scales of two sets of frames together.
+    pub fn max(self, o: Scales) -> Scales {
+        Scales {
+            footprint: self.footprint.max(o.footprint),
+            variance: self.variance.max(o.variance),
+        }
+    }
+
+    /// The factors positions (and footprints) and colours are stored at: powers of two, so
+    /// that scaling is exact.
+    pub(super) fn factors(self) -> (f64, f64) {
+        (scale_for(self.footprint), scale_for(self.variance.sqrt()))
+    }
+}
+
+/// A frame's guides at the scales of its animation, or `None` for a film whose buffers
+/// disagree with its size.
+pub(super) fn of_frame(film: &Film, opts: &AtrousOptions, scales: Scales) -> Option<Guides> {
+    let (scale_x, scale_c) = scales.factors();
+    consistent(film).then(|| pack(film, prepare(film, opts), scale_x, scale_c))
 }
 
 /// A frame's guides in `f64`, before they are scaled and stored as planes.

@@ -76,14 +76,15 @@ mod kernel;
 mod options;
 #[cfg(test)]
 mod reference;
+mod stream;
 
 pub use guides::ALBEDO_EPSILON;
+pub use guides::Scales;
 pub use options::{AtrousOptions, Temporal};
+pub use stream::{Filtered, Stream};
 
-use super::{Film, compatible};
+use super::Film;
 use glam::DVec3;
-use guides::{CHANNELS, COLOR_PLANES, Guides, split, to_planes};
-use kernel::{Pass, TAPS, Term};
 use rayon::prelude::*;
 
 /// The B3-spline kernel, 1D.
@@ -114,10 +115,13 @@ fn offset(base: usize, d: isize, step: usize, len: usize) -> Option<usize> {
 
 /// Filter every frame's colour in place.
 pub fn atrous(frames: &mut [Film], opts: &AtrousOptions) {
-    let out = filtered(frames, opts);
-    for (f, c) in frames.iter_mut().zip(out) {
-        if let Some(c) = c {
-            f.color = c;
+    let scales = scales_of(frames, opts);
+    let mut stream = Stream::new(frames.len(), opts, scales);
+    let mut k = 0;
+    for i in 0..frames.len() {
+        for out in stream.push(std::mem::replace(&mut frames[i], Film::new(0, 0))) {
+            frames[k] = out.film;
+            k += 1;
         }
     }
 }
@@ -125,134 +129,18 @@ pub fn atrous(frames: &mut [Film], opts: &AtrousOptions) {
 /// The filtered colour of every frame, without changing the films (`None` for a film whose
 /// buffers disagree with its size).
 pub fn filtered(frames: &[Film], opts: &AtrousOptions) -> Vec<Option<Vec<DVec3>>> {
-    let (guides, scale_c) = guides::of_frames(frames, opts);
-    // Demodulated colours, as planes.
-    let mut cur: Vec<Vec<f64>> = frames
-        .par_iter()
-        .zip(&guides)
-        .map(|(f, g)| match g {
-            Some(g) => to_planes((g.w, g.h, g.s), |p| (f.color[p] / g.albedo[p]).to_array()),
-            None => Vec::new(),
-        })
-        .collect();
-    // Whether each frame may take taps from the previous and from the next one.
-    let neighbours: Vec<[bool; 2]> = (0..frames.len())
-        .map(|k| {
-            let ok = |kq: Option<usize>| match kq {
-                Some(kq) if kq < frames.len() => {
-                    guides[k].is_some()
-                        && guides[kq].is_some()
-                        && compatible(&frames[k], &frames[kq])
-                }
-                _ => false,
-            };
-            [ok(k.checked_sub(1)), ok(Some(k + 1))]
-        })
-        .collect();
-    let mut next = cur.clone();
-    let mut cur32: Vec<Vec<f32>> = guides
-        .iter()
-        .map(|g| {
-            g.as_ref()
-                .map_or(Vec::new(), |g| vec![0.0; COLOR_PLANES * g.s * g.h])
-        })
-        .collect();
-    let mut stored: [Vec<f32>; 2] = [Vec::new(), Vec::new()];
-    let mut sums: Vec<Vec<f64>> = guides
-        .iter()
-        .map(|g| g.as_ref().map_or(Vec::new(), |g| vec![0.0; g.s * g.h]))
-        .collect();
-    for pass in opts.pass_range() {
-        let temporal = opts.temporal.reaches(pass);
-        let sources = neighbours
-            .iter()
-            .enumerate()
-            .map(|(k, [prev, next])| {
-                let mut s = Vec::with_capacity(3);
-                if temporal && *prev {
-                    s.push((k - 1, FRAME_WEIGHTS[0]));
-                }
-                s.push((k, FRAME_WEIGHTS[1]));
-                if temporal && *next {
-                    s.push((k + 1, FRAME_WEIGHTS[2]));
-                }
-                s
-            })
-            .collect();
-        // The colours as `f32` pairs, scaled.
-        for_rows(&guides, &mut cur32, COLOR_PLANES, |k, y, row| {
-            let s = row.len() / COLOR_PLANES;
-            let src = &cur[k][y * CHANNELS * s..(y + 1) * CHANNELS * s];
-            for c in 0..CHANNELS {
-                for x in 0..s {
-                    (row[c * s + x], row[(CHANNELS + c) * s + x]) = split(src[c * s + x] * scale_c);
-                }
-            }
-        });
-        let sc = opts.sigma_color_at(pass);
-        let step = Pass {
-            guides: &guides,
-            cur: &cur,
-            cur32: &cur32,
-            sources,
-            step: 1 << pass,
-            sc2: (sc * sc) as f32,
-            sx2: (opts.sigma_position * opts.sigma_position) as f32,
-            albedo: Term::new(opts.sigma_albedo * opts.sigma_albedo),
-            normal: Term::new(opts.sigma_normal * opts.sigma_normal),
-        };
-        if opts.conserve {
-            // Frame by frame, the weight sums one frame ahead of the update, which takes the
-            // weights the sums left (`stored`: those of frames `k` and `k + 1`).
-            let sums_of = |k: usize, sums: &mut [f64], stored: &mut Vec<f32>| {
-                if let Some(g) = &guides[k]
-                    && g.w > 0
-                {
-                    stored.resize(g.h * TAPS * g.w, 0.0);
-                    sums.par_chunks_mut(g.s)
-                        .zip(stored.par_chunks_mut(TAPS * g.w))
-                        .enumerate()
-                        .for_each(|(y, (row, st))| step.sums_row((k, y), row, st));
-                }
-            };
-            for k in 0..frames.len() {
-                if k == 0 {
-                    sums_of(0, &mut sums[0], &mut stored[0]);
-                }
-                if k + 1 < frames.len() {
-                    sums_of(k + 1, &mut sums[k + 1], &mut stored[(k + 1) % 2]);
-                }
-                if let Some(g) = &guides[k]
-                    && g.w > 0
-                {
-                    let (sums, stored) = (&sums[..], &stored[k % 2]);
-                    next[k]
-                        .par_chunks_mut(CHANNELS * g.s)
-                        .zip(stored.par_chunks(TAPS * g.w))
-                        .enumerate()
-                        .for_each(|(y, (row, st))| step.update_row((k, y), Some((sums, st)), row));
-                }
-            }
-        } else {
-            for_rows(&guides, &mut next, CHANNELS, |k, y, row| {
-                step.update_row((k, y), None, row)
-            });
-        }
-        std::mem::swap(&mut cur, &mut next);
-    }
-    frames
-        .par_iter()
-        .zip(&guides)
-        .zip(&cur)
-        .map(|((f, g), c)| {
-            let g = g.as_ref()?;
-            Some(remodulated(f, &g.albedo, |p| {
-                let (x, y) = (p % g.w, p / g.w);
-                let row = &c[y * CHANNELS * g.s..];
-                DVec3::new(row[x], row[g.s + x], row[2 * g.s + x])
-            }))
-        })
+    let mut stream = Stream::new(frames.len(), opts, scales_of(frames, opts));
+    (frames.iter())
+        .flat_map(|f| stream.push(f.clone()))
+        .map(|out| out.filtered.then_some(out.film.color))
         .collect()
+}
+
+/// The scales of all `frames` together.
+fn scales_of(frames: &[Film], opts: &AtrousOptions) -> Scales {
+    (frames.par_iter())
+        .map(|f| Scales::of(f, opts))
+        .reduce(Scales::default, Scales::max)
 }
 
 /// A film's colours from its filtered demodulated ones (`demodulated(p)` of pixel `p`): times
@@ -268,29 +156,6 @@ fn remodulated(film: &Film, albedo: &[DVec3], demodulated: impl Fn(usize) -> DVe
             if v.is_finite() { v } else { *orig }
         })
         .collect()
-}
-
-/// Run `f(k, y, row)` in parallel over every row of every frame with guides, `row` being row `y`
-/// of `out[k]`, stored as `planes` planes of the frame's stride.
-fn for_rows<T: Send>(
-    guides: &[Option<Guides>],
-    out: &mut [Vec<T>],
-    planes: usize,
-    f: impl Fn(usize, usize, &mut [T]) + Sync,
-) {
-    let mut rows = Vec::new();
-    for (k, (g, o)) in guides.iter().zip(out.iter_mut()).enumerate() {
-        if let Some(g) = g
-            && g.w > 0
-        {
-            rows.extend(
-                o.chunks_mut(planes * g.s)
-                    .enumerate()
-                    .map(|(y, r)| (k, y, r)),
-            );
-        }
-    }
-    rows.into_par_iter().for_each(|(k, y, r)| f(k, y, r));
 }
 
 #[cfg(test)]
