@@ -6,6 +6,8 @@
 
 mod gif;
 mod openexr;
+#[cfg(unix)]
+mod permissions;
 pub(crate) mod png;
 pub mod tonemap;
 
@@ -512,8 +514,11 @@ fn write_numbered(
     Ok(targets)
 }
 
-/// Move a finished temporary file to `target`.
+/// Move a finished temporary file to `target`, with the mode a file created or overwritten in
+/// place would have.
 fn persist(tmp: TempPath, target: &Path) -> Result<(), OutputError> {
+    #[cfg(unix)]
+    fs::set_permissions(&tmp, permissions::for_target(target)).map_err(io_error(target))?;
     tmp.persist(target).map_err(|e| io_error(target)(e.error))
 }
 

@@ -425,3 +425,81 @@ fn numbered_paths() {
         PathBuf::from("y_12345.exr")
     );
 }
+
+#[cfg(unix)]
+fn mode(path: &Path) -> u32 {
+    use std::os::unix::fs::PermissionsExt;
+    fs::metadata(path).unwrap().permissions().mode() & 0o7777
+}
+
+#[cfg(unix)]
+#[test]
+fn new_files_follow_the_umask() {
+    let dir = tempfile::tempdir().unwrap();
+    let expected = permissions::new_file_mode(permissions::umask());
+    let frames: Vec<HdrImage> = (0..2).map(|i| gradient(8, 8, i as f32)).collect();
+    let mut files = write(&dir.path().join("a.gif"), &frames, &settings())
+        .unwrap()
+        .files;
+    files.extend(
+        write(&dir.path().join("b.png"), &frames, &settings())
+            .unwrap()
+            .files,
+    );
+    files.extend(
+        write(&dir.path().join("c.exr"), &frames[..1], &settings())
+            .unwrap()
+            .files,
+    );
+    let bytes = dir.path().join("d.txt");
+    write_atomic(&bytes, b"text").unwrap();
+    files.push(bytes);
+    for file in &files {
+        assert_eq!(mode(file), expected, "{}", file.display());
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn new_file_mode_masks_0666() {
+    assert_eq!(permissions::new_file_mode(0o022), 0o644);
+    assert_eq!(permissions::new_file_mode(0o027), 0o640);
+    assert_eq!(permissions::new_file_mode(0o077), 0o600);
+    assert_eq!(permissions::new_file_mode(0), 0o666);
+}
+
+#[cfg(any(target_os = "linux", target_os = "android"))]
+#[test]
+fn umask_from_proc_status() {
+    let status = "Name:\tx\nUmask:\t0027\nState:\tR (running)\n";
+    assert_eq!(permissions::parse_status_umask(status), Some(0o027));
+    assert_eq!(permissions::parse_status_umask("Name:\tx\n"), None);
+    // This kernel reports it (4.7 and later), so no thread ever has the umask changed under it.
+    let status = fs::read_to_string("/proc/self/status").unwrap();
+    assert!(permissions::parse_status_umask(&status).is_some());
+}
+
+#[cfg(unix)]
+#[test]
+fn overwriting_keeps_the_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let frames = vec![gradient(8, 8, 0.0)];
+    for (name, m) in [
+        ("a.gif", 0o640),
+        ("b.png", 0o604),
+        ("c.exr", 0o660),
+        ("d.txt", 0o600),
+    ] {
+        let path = dir.path().join(name);
+        fs::write(&path, "old").unwrap();
+        fs::set_permissions(&path, fs::Permissions::from_mode(m)).unwrap();
+        if name.ends_with(".txt") {
+            write_atomic(&path, b"new").unwrap();
+        } else {
+            write(&path, &frames, &settings()).unwrap();
+        }
+        assert_ne!(fs::read(&path).unwrap(), b"old");
+        assert_eq!(mode(&path), m, "{name}");
+    }
+}
