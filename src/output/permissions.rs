@@ -36,6 +36,8 @@ pub(super) fn umask() -> u32 {
     // restored, so this is done once. The mask set meanwhile is the strictest, so a file another
     // thread creates in that moment is too private rather than too open.
     static SET_AND_RESTORED: OnceLock<u32> = OnceLock::new();
+    // `mode_t` is u16 on some systems.
+    #[allow(clippy::useless_conversion)]
     *SET_AND_RESTORED.get_or_init(|| {
         // SAFETY: umask(2) cannot fail and touches no memory.
         let old = unsafe { libc::umask(0o077) };
