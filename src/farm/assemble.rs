@@ -6,6 +6,7 @@ use super::FilmMeta;
 use super::films::{self, file_name};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
+use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::output::{self, OutputSettings, Written};
 use crate::render::driver::Unit;
 use crate::render::integrator::Stats;
@@ -185,24 +186,31 @@ impl Finish {
 }
 
 /// Denoise and encode the frames of `films` to `out`; numbered files carry the frames' own
-/// numbers when the animation has more than one frame.
+/// numbers when the animation has more than one frame. Frames stream through: each film is
+/// read when the denoiser wants it and written once it is final, so memory holds the
+/// denoiser's window, not the animation.
 pub fn assemble(films: &Films, finish: &Finish, out: &Path) -> Result<Written> {
+    use rayon::prelude::*;
     let (w, h) = (films.meta.width as usize, films.meta.height as usize);
-    let mut frames = vec![];
-    let mut numbers = vec![];
-    for (&f, paths) in &films.frames {
-        frames.push(Film::from_sums(w, h, &films.sums(paths)?));
-        numbers.push(f as usize);
+    let film = |paths: &[PathBuf]| -> Result<Film> { Ok(Film::from_sums(w, h, &films.sums(paths)?)) };
+    let opts = AtrousOptions::default();
+    // Neighbouring frames' guides are compared at common scales: a pass over the films first.
+    let scales = if Denoiser::needs_scales(finish.denoise) {
+        (films.frames.par_iter())
+            .map(|(_, paths)| film(paths).map(|f| Scales::of(&f, &opts)))
+            .try_reduce(Scales::default, |a, b| Ok(a.max(b)))?
+    } else {
+        Scales::default()
+    };
+    let mut denoiser = Denoiser::new(finish.denoise, films.frames.len(), &opts, scales);
+    let mut sink = output::Sink::create(out, &finish.output, films.meta.frames > 1)?;
+    let numbers: Vec<u32> = films.frames.keys().copied().collect();
+    let mut next = 0;
+    for paths in films.frames.values() {
+        for done in denoiser.push(film(paths)?) {
+            sink.push(numbers[next] as usize, &done.image())?;
+            next += 1;
+        }
     }
-    let opts = crate::denoise::AtrousOptions::default();
-    crate::denoise::denoise(&mut frames, finish.denoise, &opts);
-    let images: Vec<_> = frames.iter().map(Film::image).collect();
-    let numbered = films.meta.frames > 1;
-    Ok(output::write_frames(
-        out,
-        &numbers,
-        &images,
-        &finish.output,
-        numbered,
-    )?)
+    Ok(sink.finish()?)
 }

@@ -242,32 +242,60 @@ pub(crate) fn frame_delay(fps: f64) -> u16 {
     d.clamp(2.0, u16::MAX as f64) as u16
 }
 
-/// Encode 8-bit frames (all `width` × `height`) as an infinitely looping GIF. Returns the mean
-/// PSNR of the quantised frames.
-pub(crate) fn encode<W: Write>(
-    w: W,
-    frames: &[Vec<[u8; 3]>],
+/// An infinitely looping animated GIF, written a batch of frames at a time.
+pub(crate) struct Writer<W: Write> {
+    encoder: ::gif::Encoder<W>,
     width: u16,
     height: u16,
-    fps: f64,
-) -> Result<f64, ::gif::EncodingError> {
-    let quantised: Vec<Quantised> = frames
-        .par_iter()
-        .map(|f| quantise(f, width as usize))
-        .collect();
-    let mut encoder = ::gif::Encoder::new(w, width, height, &[])?;
-    encoder.set_repeat(::gif::Repeat::Infinite)?;
-    let delay = frame_delay(fps);
-    for q in &quantised {
-        let palette: Vec<u8> = q.palette.iter().flatten().copied().collect();
-        let mut frame =
-            ::gif::Frame::from_palette_pixels(width, height, q.indices.as_slice(), palette, None);
-        frame.delay = delay;
-        encoder.write_frame(&frame)?;
+    delay: u16,
+    psnrs: Vec<f64>,
+}
+
+impl<W: Write> Writer<W> {
+    /// Write the header of a `width` × `height` animation at `fps`.
+    pub(crate) fn new(
+        w: W,
+        width: u16,
+        height: u16,
+        fps: f64,
+    ) -> Result<Self, ::gif::EncodingError> {
+        let mut encoder = ::gif::Encoder::new(w, width, height, &[])?;
+        encoder.set_repeat(::gif::Repeat::Infinite)?;
+        Ok(Writer {
+            encoder,
+            width,
+            height,
+            delay: frame_delay(fps),
+            psnrs: Vec::new(),
+        })
     }
-    encoder.into_inner()?;
-    let psnrs: Vec<f64> = quantised.iter().map(|q| q.psnr).collect();
-    Ok(mean_psnr(&psnrs))
+
+    /// Quantise 8-bit frames (all `width` × `height`) in parallel, then append them in order.
+    pub(crate) fn write_frames(
+        &mut self,
+        frames: &[Vec<[u8; 3]>],
+    ) -> Result<(), ::gif::EncodingError> {
+        let (width, height) = (self.width, self.height);
+        let quantised: Vec<Quantised> = frames
+            .par_iter()
+            .map(|f| quantise(f, width as usize))
+            .collect();
+        for q in quantised {
+            let palette: Vec<u8> = q.palette.iter().flatten().copied().collect();
+            let mut frame =
+                ::gif::Frame::from_palette_pixels(width, height, q.indices, palette, None);
+            frame.delay = self.delay;
+            self.encoder.write_frame(&frame)?;
+            self.psnrs.push(q.psnr);
+        }
+        Ok(())
+    }
+
+    /// Write the trailer. Returns the writer and the mean PSNR of the quantised frames.
+    pub(crate) fn finish(self) -> Result<(W, f64), ::gif::EncodingError> {
+        let w = self.encoder.into_inner()?;
+        Ok((w, mean_psnr(&self.psnrs)))
+    }
 }
 
 #[cfg(test)]

@@ -1,21 +1,23 @@
 //! Turning rendered linear-HDR frames into files: an animated GIF, numbered PNGs or numbered
 //! OpenEXRs, chosen by the output path's extension.
 //!
-//! Every file is written atomically: into a temporary file in the same directory, which is
-//! renamed over the destination only once it is complete.
+//! Frames are written as they come through a [`Sink`]. Every file is written atomically: into a
+//! temporary file in the same directory, which is renamed over the destination only once it is
+//! complete, with the mode a file created in place would have.
 
 mod gif;
 mod openexr;
+#[cfg(unix)]
+mod permissions;
 pub(crate) mod png;
 pub mod tonemap;
 
-use std::ffi::OsString;
+use std::ffi::{OsStr, OsString};
 use std::fmt;
 use std::fs;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 
-use rayon::prelude::*;
 use tempfile::{NamedTempFile, TempPath};
 
 /// One linear-HDR frame, row-major from the top-left pixel, RGB radiance.
@@ -188,6 +190,13 @@ pub enum OutputError {
         name: &'static str,
         value: f64,
     },
+    /// A frame was pushed out of order: not after the one before, not straight after it in a
+    /// GIF, or a second one into a single file.
+    FrameOrder {
+        path: PathBuf,
+        frame: usize,
+        previous: usize,
+    },
     /// Reading or writing failed.
     Io { path: PathBuf, source: io::Error },
     /// The encoder failed.
@@ -312,6 +321,15 @@ impl fmt::Display for OutputError {
                 "cannot write `{}`: invalid {name} {value}",
                 path.display()
             ),
+            FrameOrder {
+                path,
+                frame,
+                previous,
+            } => write!(
+                f,
+                "cannot write `{}`: frame {frame} cannot follow frame {previous}",
+                path.display()
+            ),
             Io { path, source } => write!(f, "cannot write `{}`: {source}", path.display()),
             Encode {
                 path,
@@ -432,46 +450,6 @@ pub fn numbered_path(path: &Path, index: usize) -> PathBuf {
     path.with_file_name(name)
 }
 
-/// Frames are non-empty and their buffers match their sizes.
-fn validate(
-    path: &Path,
-    frames: &[HdrImage],
-    settings: &OutputSettings,
-) -> Result<(), OutputError> {
-    if frames.is_empty() {
-        return Err(OutputError::NoFrames {
-            path: path.to_path_buf(),
-        });
-    }
-    for (i, f) in frames.iter().enumerate() {
-        if f.width == 0 || f.height == 0 {
-            return Err(OutputError::EmptyFrame {
-                path: path.to_path_buf(),
-                frame: i,
-                width: f.width,
-                height: f.height,
-            });
-        }
-        let expected = f.width.checked_mul(f.height);
-        if expected != Some(f.data.len()) {
-            return Err(OutputError::BadFrameData {
-                path: path.to_path_buf(),
-                frame: i,
-                expected,
-                actual: f.data.len(),
-            });
-        }
-    }
-    if !settings.exposure.is_finite() || settings.exposure < 0.0 {
-        return Err(OutputError::InvalidSetting {
-            path: path.to_path_buf(),
-            name: "exposure",
-            value: settings.exposure,
-        });
-    }
-    Ok(())
-}
-
 /// Create a temporary file beside `path`, fill it with `fill`, and flush it to disk. The file
 /// is deleted again if anything fails, or when the returned path is dropped unpersisted.
 fn write_temp(
@@ -489,31 +467,11 @@ fn write_temp(
     Ok(tmp.into_temp_path())
 }
 
-/// Encode every frame into its own temporary file (in parallel), then move them all into place,
-/// so an encoding failure leaves no partial sequence behind.
-fn write_numbered(
-    path: &Path,
-    count: usize,
-    encode: impl Fn(usize, &mut BufWriter<&mut fs::File>) -> Result<(), OutputError> + Sync,
-) -> Result<Vec<PathBuf>, OutputError> {
-    let targets: Vec<PathBuf> = if count == 1 {
-        vec![path.to_path_buf()]
-    } else {
-        (0..count).map(|i| numbered_path(path, i)).collect()
-    };
-    let temps: Vec<TempPath> = targets
-        .par_iter()
-        .enumerate()
-        .map(|(i, target)| write_temp(target, |w| encode(i, w)))
-        .collect::<Result<_, _>>()?;
-    for (tmp, target) in temps.into_iter().zip(&targets) {
-        persist(tmp, target)?;
-    }
-    Ok(targets)
-}
-
-/// Move a finished temporary file to `target`.
+/// Move a finished temporary file to `target`, with the mode a file created or overwritten in
+/// place would have.
 fn persist(tmp: TempPath, target: &Path) -> Result<(), OutputError> {
+    #[cfg(unix)]
+    fs::set_permissions(&tmp, permissions::for_target(target)).map_err(io_error(target))?;
     tmp.persist(target).map_err(|e| io_error(target)(e.error))
 }
 
@@ -547,148 +505,359 @@ fn io_error(path: &Path) -> impl Fn(io::Error) -> OutputError + Copy + '_ {
 /// Write all frames: `.gif` -> one animated, infinitely looping GIF at `fps`; `.png` -> numbered
 /// tone-mapped 8-bit frames `stem_0000.png`, `stem_0001.png`, ... beside `path` (just `path`
 /// itself when there is one frame); `.exr` -> linear 32-bit float RGB frames numbered the same
-/// way, multiplied by the exposure but not tone-mapped.
+/// way, multiplied by the exposure but not tone-mapped. See [`Sink`], which this feeds.
 pub fn write(
     path: &Path,
     frames: &[HdrImage],
     settings: &OutputSettings,
 ) -> Result<Written, OutputError> {
-    let format = Format::from_path(path)?;
-    validate(path, frames, settings)?;
-    if path.is_dir() {
-        return Err(OutputError::IsDirectory {
-            path: path.to_path_buf(),
-        });
-    }
-    check_directory(path)?;
-    match format {
-        Format::Gif => write_gif(path, frames, settings),
-        Format::Png | Format::Exr => {
-            if format == Format::Png {
-                let limit = u32::MAX as usize;
-                for f in frames {
-                    if f.width > limit || f.height > limit {
-                        return Err(too_large(path, format, f, limit));
-                    }
-                }
-            }
-            let files = write_numbered(path, frames.len(), |i, w| {
-                let f = &frames[i];
-                let encoded = if format == Format::Png {
-                    let pixels = tonemap::to_srgb8(f, settings.exposure);
-                    png::encode(w, &pixels, f.width as u32, f.height as u32)
-                        .map_err(|e| e.to_string())
-                } else {
-                    openexr::encode(w, f, settings.exposure).map_err(|e| e.to_string())
-                };
-                encoded.map_err(|message| OutputError::Encode {
-                    path: path.to_path_buf(),
-                    format,
-                    message,
-                })
-            })?;
-            Ok(Written {
-                files,
-                gif_psnr: None,
-            })
+    let mut sink = Sink::create(path, settings, frames.len() > 1)?;
+    // Check every frame before writing any, so bad input leaves no partial sequence behind.
+    if let Some(first) = frames.first() {
+        for (i, f) in frames.iter().enumerate() {
+            sink.check(i, f, (first.width, first.height))?;
         }
     }
-}
-
-/// [`write`] of frames with their own numbers: numbered files are `stem_NNNN.ext` of the
-/// frame's number `numbers[i]`; unnumbered, the one frame goes to `path` (a GIF is one file).
-pub fn write_frames(
-    path: &Path,
-    numbers: &[usize],
-    frames: &[HdrImage],
-    settings: &OutputSettings,
-    numbered: bool,
-) -> Result<Written, OutputError> {
-    let contiguous = numbers.iter().enumerate().all(|(i, &n)| i == n);
-    if Format::from_path(path)? == Format::Gif || (contiguous && (numbered == (frames.len() > 1))) {
-        return write(path, frames, settings);
-    }
-    let mut files = vec![];
-    for (&n, f) in numbers.iter().zip(frames) {
-        let target = if numbered {
-            numbered_path(path, n)
-        } else {
-            path.to_path_buf()
-        };
-        write(&target, std::slice::from_ref(f), settings)?;
-        files.push(target);
-    }
-    Ok(Written {
-        files,
-        gif_psnr: None,
-    })
-}
-
-fn too_large(path: &Path, format: Format, f: &HdrImage, limit: usize) -> OutputError {
-    OutputError::TooLarge {
-        path: path.to_path_buf(),
-        format,
-        width: f.width,
-        height: f.height,
-        limit,
-    }
-}
-
-fn write_gif(
-    path: &Path,
-    frames: &[HdrImage],
-    settings: &OutputSettings,
-) -> Result<Written, OutputError> {
-    if !settings.fps.is_finite() || settings.fps <= 0.0 {
-        return Err(OutputError::InvalidSetting {
-            path: path.to_path_buf(),
-            name: "fps",
-            value: settings.fps,
-        });
-    }
-    let first = &frames[0];
     for (i, f) in frames.iter().enumerate() {
-        if (f.width, f.height) != (first.width, first.height) {
-            return Err(OutputError::MismatchedFrames {
+        sink.push(i, f)?;
+    }
+    sink.finish()
+}
+
+/// Frames written as they come, so memory does not grow with their number. PNG and EXR frames
+/// each go to their own file at once; GIF frames are appended to a temporary file beside the
+/// output, which [`Sink::finish`] moves into place. Dropping a sink unfinished removes that
+/// temporary file; PNG and EXR frames already written stay.
+pub struct Sink {
+    path: PathBuf,
+    format: Format,
+    settings: OutputSettings,
+    numbered: bool,
+    /// The size of the first frame pushed.
+    first: Option<(usize, usize)>,
+    /// The index of the last frame pushed.
+    last: Option<usize>,
+    files: Vec<PathBuf>,
+    kind: Kind,
+}
+
+enum Kind {
+    /// PNG or EXR: one file per frame.
+    Files,
+    /// A GIF before its first frame, whose size the header needs.
+    GifPending,
+    Gif(GifFile),
+    /// A GIF that failed to encode or write a frame: its temporary file is gone, and it cannot be
+    /// finished without that frame.
+    GifFailed,
+}
+
+impl Sink {
+    /// A sink for `path`, whose extension chooses the format. `numbered`: frames go to
+    /// `stem_NNNN.ext` files (see [`numbered_path`]) by the index given to [`Sink::push`];
+    /// otherwise the one frame goes to `path` itself. A GIF is always the one file `path`.
+    /// Checks the settings and that `path` can be written; creates nothing that remains.
+    pub fn create(
+        path: &Path,
+        settings: &OutputSettings,
+        numbered: bool,
+    ) -> Result<Sink, OutputError> {
+        let format = Format::from_path(path)?;
+        let invalid = |name, value| OutputError::InvalidSetting {
+            path: path.to_path_buf(),
+            name,
+            value,
+        };
+        if !settings.exposure.is_finite() || settings.exposure < 0.0 {
+            return Err(invalid("exposure", settings.exposure));
+        }
+        if format == Format::Gif && !(settings.fps.is_finite() && settings.fps > 0.0) {
+            return Err(invalid("fps", settings.fps));
+        }
+        if path.is_dir() {
+            return Err(OutputError::IsDirectory {
                 path: path.to_path_buf(),
-                frame: i,
-                size: (f.width, f.height),
-                first: (first.width, first.height),
             });
         }
-    }
-    let limit = u16::MAX as usize;
-    if first.width > limit || first.height > limit {
-        return Err(too_large(path, Format::Gif, first, limit));
-    }
-    let pixels: Vec<Vec<[u8; 3]>> = frames
-        .par_iter()
-        .map(|f| tonemap::to_srgb8(f, settings.exposure))
-        .collect();
-    let mut psnr = 0.0;
-    let tmp = write_temp(path, |w| {
-        psnr = gif::encode(
-            w,
-            &pixels,
-            first.width as u16,
-            first.height as u16,
-            settings.fps,
-        )
-        .map_err(|e| match e {
-            ::gif::EncodingError::Io(source) => io_error(path)(source),
-            e => OutputError::Encode {
-                path: path.to_path_buf(),
-                format: Format::Gif,
-                message: e.to_string(),
+        check_directory(path)?;
+        Ok(Sink {
+            path: path.to_path_buf(),
+            format,
+            settings: *settings,
+            numbered,
+            first: None,
+            last: None,
+            files: Vec::new(),
+            kind: if format == Format::Gif {
+                Kind::GifPending
+            } else {
+                Kind::Files
             },
-        })?;
+        })
+    }
+
+    /// Write frame `index`. Indices increase from push to push, and in a GIF follow on without
+    /// gaps; a sink that is not numbered takes one frame. PNG and EXR frames are written
+    /// atomically at once, to [`numbered_path`] or `path`; GIF frames are tone-mapped, and once
+    /// there is one per thread they are quantised in parallel and appended to the temporary file.
+    /// A frame that is rejected leaves the sink as it was; after a GIF fails to encode or write a
+    /// frame, every later call fails.
+    pub fn push(&mut self, index: usize, frame: &HdrImage) -> Result<(), OutputError> {
+        if let Kind::GifFailed = self.kind {
+            return Err(self.gif_failed());
+        }
+        if let Some(previous) = self.last {
+            let follows = match self.kind {
+                Kind::Files => self.numbered && index > previous,
+                _ => previous.checked_add(1) == Some(index),
+            };
+            if !follows {
+                return Err(OutputError::FrameOrder {
+                    path: self.path.clone(),
+                    frame: index,
+                    previous,
+                });
+            }
+        }
+        let size = (frame.width, frame.height);
+        self.check(index, frame, self.first.unwrap_or(size))?;
+        if let Kind::Files = self.kind {
+            let target = if self.numbered {
+                numbered_path(&self.path, index)
+            } else {
+                self.path.clone()
+            };
+            let tmp = write_temp(&target, |w| {
+                encode_file(&self.path, self.format, self.settings.exposure, frame, w)
+            })?;
+            persist(tmp, &target)?;
+            self.files.push(target);
+        } else {
+            let pixels = tonemap::to_srgb8(frame, self.settings.exposure);
+            let pushed = match &mut self.kind {
+                Kind::Gif(gif) => gif.push(&self.path, pixels),
+                // `check` has bounded the size by u16::MAX.
+                _ => GifFile::create(&self.path, size.0 as u16, size.1 as u16, self.settings.fps)
+                    .and_then(|mut gif| {
+                        gif.push(&self.path, pixels)?;
+                        self.kind = Kind::Gif(gif);
+                        Ok(())
+                    }),
+            };
+            if pushed.is_err() {
+                // Dropping the GIF removes its temporary file.
+                self.kind = Kind::GifFailed;
+            }
+            pushed?;
+        }
+        self.first.get_or_insert(size);
+        self.last = Some(index);
         Ok(())
-    })?;
-    persist(tmp, path)?;
-    Ok(Written {
-        files: vec![path.to_path_buf()],
-        gif_psnr: Some(psnr),
+    }
+
+    /// Finish writing: a GIF's last frames are encoded and its temporary file is moved over
+    /// `path`. Fails with [`OutputError::NoFrames`] when nothing was pushed.
+    pub fn finish(mut self) -> Result<Written, OutputError> {
+        let gif_psnr = match self.kind {
+            Kind::Files if !self.files.is_empty() => None,
+            Kind::Files | Kind::GifPending => {
+                return Err(OutputError::NoFrames { path: self.path });
+            }
+            Kind::Gif(gif) => {
+                let psnr = gif.finish(&self.path)?;
+                self.files.push(self.path);
+                Some(psnr)
+            }
+            Kind::GifFailed => return Err(self.gif_failed()),
+        };
+        Ok(Written {
+            files: self.files,
+            gif_psnr,
+        })
+    }
+
+    /// Frame `index` is non-empty, its buffer matches its size, and it fits the format and, in a
+    /// GIF, the size `first` of the animation's first frame.
+    fn check(&self, index: usize, f: &HdrImage, first: (usize, usize)) -> Result<(), OutputError> {
+        let path = self.path.clone();
+        if f.width == 0 || f.height == 0 {
+            return Err(OutputError::EmptyFrame {
+                path,
+                frame: index,
+                width: f.width,
+                height: f.height,
+            });
+        }
+        let expected = f.width.checked_mul(f.height);
+        if expected != Some(f.data.len()) {
+            return Err(OutputError::BadFrameData {
+                path,
+                frame: index,
+                expected,
+                actual: f.data.len(),
+            });
+        }
+        let limit = match self.format {
+            Format::Gif if (f.width, f.height) != first => {
+                return Err(OutputError::MismatchedFrames {
+                    path,
+                    frame: index,
+                    size: (f.width, f.height),
+                    first,
+                });
+            }
+            Format::Gif => u16::MAX as usize,
+            Format::Png => u32::MAX as usize,
+            Format::Exr => return Ok(()),
+        };
+        if f.width > limit || f.height > limit {
+            return Err(OutputError::TooLarge {
+                path,
+                format: self.format,
+                width: f.width,
+                height: f.height,
+                limit,
+            });
+        }
+        Ok(())
+    }
+
+    fn gif_failed(&self) -> OutputError {
+        OutputError::Encode {
+            path: self.path.clone(),
+            format: Format::Gif,
+            message: "an earlier frame failed".to_string(),
+        }
+    }
+}
+
+/// Encode one PNG or EXR frame.
+fn encode_file(
+    path: &Path,
+    format: Format,
+    exposure: f64,
+    f: &HdrImage,
+    w: &mut BufWriter<&mut fs::File>,
+) -> Result<(), OutputError> {
+    let encoded = if format == Format::Png {
+        let pixels = tonemap::to_srgb8(f, exposure);
+        png::encode(w, &pixels, f.width as u32, f.height as u32).map_err(|e| e.to_string())
+    } else {
+        openexr::encode(w, f, exposure).map_err(|e| e.to_string())
+    };
+    encoded.map_err(|message| OutputError::Encode {
+        path: path.to_path_buf(),
+        format,
+        message,
     })
+}
+
+/// A GIF being written to a temporary file beside the output. Frames wait, tone-mapped, until
+/// there is one per thread, because quantising is the slow part and frames quantise in parallel.
+struct GifFile {
+    // Declared before `temp`, so the file is closed before the temporary path removes it.
+    writer: gif::Writer<BufWriter<fs::File>>,
+    temp: TempPath,
+    pending: Vec<Vec<[u8; 3]>>,
+    batch: usize,
+}
+
+impl GifFile {
+    fn create(path: &Path, width: u16, height: u16, fps: f64) -> Result<GifFile, OutputError> {
+        let (file, temp) = NamedTempFile::new_in(dir_for_io(parent_dir(path)))
+            .map_err(io_error(path))?
+            .into_parts();
+        let writer =
+            gif::Writer::new(BufWriter::new(file), width, height, fps).map_err(gif_error(path))?;
+        Ok(GifFile {
+            writer,
+            temp,
+            pending: Vec::new(),
+            batch: rayon::current_num_threads().max(1),
+        })
+    }
+
+    fn push(&mut self, path: &Path, pixels: Vec<[u8; 3]>) -> Result<(), OutputError> {
+        self.pending.push(pixels);
+        if self.pending.len() >= self.batch {
+            self.flush(path)?;
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self, path: &Path) -> Result<(), OutputError> {
+        self.writer
+            .write_frames(&self.pending)
+            .map_err(gif_error(path))?;
+        self.pending.clear();
+        Ok(())
+    }
+
+    /// Encode the waiting frames, end the file, flush it to disk and move it over `path`.
+    /// Returns the mean PSNR of the frames.
+    fn finish(mut self, path: &Path) -> Result<f64, OutputError> {
+        self.flush(path)?;
+        let (w, psnr) = self.writer.finish().map_err(gif_error(path))?;
+        let file = w.into_inner().map_err(|e| io_error(path)(e.into_error()))?;
+        file.sync_all().map_err(io_error(path))?;
+        drop(file);
+        persist(self.temp, path)?;
+        Ok(psnr)
+    }
+}
+
+/// A GIF encoder's error as an [`OutputError`] on `path`.
+fn gif_error(path: &Path) -> impl Fn(::gif::EncodingError) -> OutputError + '_ {
+    move |e| match e {
+        ::gif::EncodingError::Io(source) => io_error(path)(source),
+        e => OutputError::Encode {
+            path: path.to_path_buf(),
+            format: Format::Gif,
+            message: e.to_string(),
+        },
+    }
+}
+
+/// Numbered frames of `path` from an earlier run that `written` does not list: the files beside
+/// `path` named `stem_NNNN.ext` (four or more digits; the extension in any case), spelt as
+/// [`numbered_path`] spells them, sorted. Empty when the directory cannot be read.
+pub fn stale_frames(path: &Path, written: &[PathBuf]) -> Vec<PathBuf> {
+    let Some(stem) = path.file_stem() else {
+        return Vec::new();
+    };
+    let Ok(entries) = fs::read_dir(dir_for_io(parent_dir(path))) else {
+        return Vec::new();
+    };
+    let mut stale: Vec<PathBuf> = entries
+        .filter_map(Result::ok)
+        .map(|e| e.file_name())
+        .filter(|name| is_numbered_name(name, stem, path.extension()))
+        .map(|name| path.with_file_name(name))
+        .filter(|p| p.is_file() && !written.contains(p))
+        .collect();
+    stale.sort();
+    stale
+}
+
+/// Whether `name` is `stem_NNNN.ext` (or `stem_NNNN` without an extension), with four or more
+/// digits and `ext` in any case.
+fn is_numbered_name(name: &OsStr, stem: &OsStr, ext: Option<&OsStr>) -> bool {
+    let Some(rest) = name
+        .as_encoded_bytes()
+        .strip_prefix(stem.as_encoded_bytes())
+        .and_then(|r| r.strip_prefix(b"_"))
+    else {
+        return false;
+    };
+    let digits = rest.iter().take_while(|b| b.is_ascii_digit()).count();
+    let rest = &rest[digits..];
+    digits >= 4
+        && match ext {
+            Some(ext) => rest
+                .strip_prefix(b".")
+                .is_some_and(|e| e.eq_ignore_ascii_case(ext.as_encoded_bytes())),
+            None => rest.is_empty(),
+        }
 }
 
 #[cfg(test)]

@@ -17,7 +17,7 @@ pub(crate) fn encode<W: Write + Seek>(
         let [r, g, b] = img.data[y * width + x];
         (r * exposure, g * exposure, b * exposure)
     });
-    // Frames are already encoded in parallel; exr's own pool would spawn threads per frame.
+    // exr's parallel writer builds a thread pool of its own on every call, that is per frame.
     Image::from_channels((img.width, img.height), channels)
         .write()
         .non_parallel()

@@ -425,3 +425,498 @@ fn numbered_paths() {
         PathBuf::from("y_12345.exr")
     );
 }
+
+#[cfg(unix)]
+fn mode(path: &Path) -> u32 {
+    use std::os::unix::fs::PermissionsExt;
+    fs::metadata(path).unwrap().permissions().mode() & 0o7777
+}
+
+#[cfg(unix)]
+#[test]
+fn new_files_follow_the_umask() {
+    let dir = tempfile::tempdir().unwrap();
+    let expected = permissions::new_file_mode(permissions::umask());
+    let frames: Vec<HdrImage> = (0..2).map(|i| gradient(8, 8, i as f32)).collect();
+    let mut files = write(&dir.path().join("a.gif"), &frames, &settings())
+        .unwrap()
+        .files;
+    files.extend(
+        write(&dir.path().join("b.png"), &frames, &settings())
+            .unwrap()
+            .files,
+    );
+    files.extend(
+        write(&dir.path().join("c.exr"), &frames[..1], &settings())
+            .unwrap()
+            .files,
+    );
+    let bytes = dir.path().join("d.txt");
+    write_atomic(&bytes, b"text").unwrap();
+    files.push(bytes);
+    for file in &files {
+        assert_eq!(mode(file), expected, "{}", file.display());
+    }
+}
+
+#[cfg(unix)]
+#[test]
+fn new_file_mode_masks_0666() {
+    assert_eq!(permissions::new_file_mode(0o022), 0o644);
+    assert_eq!(permissions::new_file_mode(0o027), 0o640);
+    assert_eq!(permissions::new_file_mode(0o077), 0o600);
+    assert_eq!(permissions::new_file_mode(0), 0o666);
+}
+
+#[cfg(any(target_os = "linux", target_os = "android"))]
+#[test]
+fn umask_from_proc_status() {
+    let status = "Name:\tx\nUmask:\t0027\nState:\tR (running)\n";
+    assert_eq!(permissions::parse_status_umask(status), Some(0o027));
+    assert_eq!(permissions::parse_status_umask("Name:\tx\n"), None);
+    // This kernel reports it (4.7 and later), so no thread ever has the umask changed under it.
+    let status = fs::read_to_string("/proc/self/status").unwrap();
+    assert!(permissions::parse_status_umask(&status).is_some());
+}
+
+#[cfg(unix)]
+#[test]
+fn overwriting_keeps_the_mode() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().unwrap();
+    let frames = vec![gradient(8, 8, 0.0)];
+    for (name, m) in [
+        ("a.gif", 0o640),
+        ("b.png", 0o604),
+        ("c.exr", 0o660),
+        ("d.txt", 0o600),
+    ] {
+        let path = dir.path().join(name);
+        fs::write(&path, "old").unwrap();
+        fs::set_permissions(&path, fs::Permissions::from_mode(m)).unwrap();
+        if name.ends_with(".txt") {
+            write_atomic(&path, b"new").unwrap();
+        } else {
+            write(&path, &frames, &settings()).unwrap();
+        }
+        assert_ne!(fs::read(&path).unwrap(), b"old");
+        assert_eq!(mode(&path), m, "{name}");
+    }
+}
+
+/// A GIF as `write` encoded it before frames were streamed: every frame tone-mapped and
+/// quantised first, then all encoded in one go. Streaming must not change a byte.
+fn unstreamed_gif(frames: &[HdrImage], s: &OutputSettings) -> Vec<u8> {
+    let (w, h) = (frames[0].width as u16, frames[0].height as u16);
+    let quantised: Vec<gif::Quantised> = frames
+        .iter()
+        .map(|f| gif::quantise(&tonemap::to_srgb8(f, s.exposure), w as usize))
+        .collect();
+    let mut out = Vec::new();
+    let mut encoder = ::gif::Encoder::new(&mut out, w, h, &[]).unwrap();
+    encoder.set_repeat(::gif::Repeat::Infinite).unwrap();
+    for q in &quantised {
+        let palette: Vec<u8> = q.palette.iter().flatten().copied().collect();
+        let mut frame =
+            ::gif::Frame::from_palette_pixels(w, h, q.indices.as_slice(), palette, None);
+        frame.delay = gif::frame_delay(s.fps);
+        encoder.write_frame(&frame).unwrap();
+    }
+    encoder.into_inner().unwrap();
+    out
+}
+
+/// More frames than one batch of one per thread, and a last batch that is not full; dithered
+/// frames and frames with few enough colours to keep exactly.
+fn animation() -> Vec<HdrImage> {
+    let n = 2 * rayon::current_num_threads() + 1;
+    (0..n)
+        .map(|i| {
+            if i % 3 == 1 {
+                HdrImage::from_fn(40, 30, |x, y| {
+                    [((x + i) / 8) as f32 * 0.2, (y / 6) as f32 * 0.3, 0.5]
+                })
+            } else {
+                gradient(40, 30, i as f32 * 0.4)
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn gif_write_matches_the_unstreamed_encoder() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("anim.gif");
+    let frames = animation();
+    let s = OutputSettings {
+        exposure: 1.3,
+        fps: 12.0,
+    };
+    write(&path, &frames, &s).unwrap();
+    assert!(fs::read(&path).unwrap() == unstreamed_gif(&frames, &s));
+}
+
+#[test]
+fn gif_sink_streams_in_batches_and_matches_the_unstreamed_encoder() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("anim.gif");
+    let frames = animation();
+    let s = settings();
+    let mut sink = Sink::create(&path, &s, false).unwrap();
+    for (i, f) in frames.iter().enumerate() {
+        sink.push(i, f).unwrap();
+        let Kind::Gif(gif) = &sink.kind else {
+            panic!("a GIF sink writes from its first frame")
+        };
+        // Frames do not pile up: at most a batch short of one per thread waits.
+        assert!(
+            gif.pending.len() < gif.batch.max(2),
+            "{} waiting",
+            gif.pending.len()
+        );
+        // The output appears only when finished.
+        assert!(!path.exists());
+    }
+    let written = sink.finish().unwrap();
+    assert_eq!(written.files, vec![path.clone()]);
+    assert!(fs::read(&path).unwrap() == unstreamed_gif(&frames, &s));
+    let decoded = decode_gif(&path);
+    assert_eq!(decoded.frames.len(), frames.len());
+    assert_eq!(decoded.delays, vec![gif::frame_delay(s.fps); frames.len()]);
+    // The mean PSNR over all frames, not just the last batch.
+    let psnrs: Vec<f64> = frames
+        .iter()
+        .map(|f| gif::quantise(&tonemap::to_srgb8(f, s.exposure), f.width).psnr)
+        .collect();
+    assert_eq!(written.gif_psnr, Some(gif::mean_psnr(&psnrs)));
+    assert_eq!(listing(dir.path()), vec!["anim.gif"]);
+}
+
+#[test]
+fn png_and_exr_sinks_write_each_frame_when_pushed() {
+    let dir = tempfile::tempdir().unwrap();
+    for ext in ["png", "exr"] {
+        let path = dir.path().join(format!("seq.{ext}"));
+        let mut sink = Sink::create(&path, &settings(), true).unwrap();
+        let mut expected = Vec::new();
+        for index in [3, 4, 10] {
+            sink.push(index, &gradient(12, 9, index as f32)).unwrap();
+            let file = dir.path().join(format!("seq_{index:04}.{ext}"));
+            assert!(file.is_file(), "{} written at once", file.display());
+            expected.push(file);
+        }
+        let written = sink.finish().unwrap();
+        assert_eq!(written.files, expected);
+        assert_eq!(written.gif_psnr, None);
+    }
+    let png = image::open(dir.path().join("seq_0010.png"))
+        .unwrap()
+        .into_rgb8();
+    assert_eq!(
+        png.into_raw(),
+        tonemap::to_srgb8(&gradient(12, 9, 10.0), 1.0).into_flattened()
+    );
+
+    // Not numbered: the one frame is the file itself, whatever its index.
+    let single = dir.path().join("one.png");
+    let mut sink = Sink::create(&single, &settings(), false).unwrap();
+    sink.push(7, &gradient(4, 4, 0.0)).unwrap();
+    assert!(matches!(
+        sink.push(8, &gradient(4, 4, 1.0)),
+        Err(OutputError::FrameOrder {
+            frame: 8,
+            previous: 7,
+            ..
+        })
+    ));
+    assert_eq!(sink.finish().unwrap().files, vec![single]);
+    assert_eq!(
+        listing(dir.path()),
+        vec![
+            "one.png",
+            "seq_0003.exr",
+            "seq_0003.png",
+            "seq_0004.exr",
+            "seq_0004.png",
+            "seq_0010.exr",
+            "seq_0010.png"
+        ]
+    );
+}
+
+#[test]
+fn sinks_reject_frames_out_of_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let frame = gradient(4, 4, 0.0);
+    let mut png = Sink::create(&dir.path().join("a.png"), &settings(), true).unwrap();
+    png.push(2, &frame).unwrap();
+    for index in [2, 1] {
+        let e = png.push(index, &frame).unwrap_err();
+        assert!(
+            matches!(e, OutputError::FrameOrder { previous: 2, .. }),
+            "{e}"
+        );
+        assert!(e.to_string().contains("cannot follow frame 2"), "{e}");
+    }
+    png.push(5, &frame).unwrap();
+
+    // A GIF has no gaps.
+    let mut gif = Sink::create(&dir.path().join("b.gif"), &settings(), true).unwrap();
+    gif.push(4, &frame).unwrap();
+    assert!(matches!(
+        gif.push(6, &frame),
+        Err(OutputError::FrameOrder {
+            frame: 6,
+            previous: 4,
+            ..
+        })
+    ));
+    gif.push(5, &frame).unwrap();
+    assert_eq!(decode_gif_len(gif), 2);
+}
+
+fn decode_gif_len(sink: Sink) -> usize {
+    let written = sink.finish().unwrap();
+    decode_gif(&written.files[0]).frames.len()
+}
+
+#[test]
+fn sinks_check_each_frame_and_stay_usable() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.gif");
+    let mut sink = Sink::create(&path, &settings(), false).unwrap();
+    sink.push(0, &HdrImage::new(4, 4)).unwrap();
+    assert!(matches!(
+        sink.push(1, &HdrImage::new(5, 4)),
+        Err(OutputError::MismatchedFrames {
+            frame: 1,
+            size: (5, 4),
+            first: (4, 4),
+            ..
+        })
+    ));
+    assert!(matches!(
+        sink.push(1, &HdrImage::new(0, 4)),
+        Err(OutputError::EmptyFrame { frame: 1, .. })
+    ));
+    let bad = HdrImage {
+        width: 4,
+        height: 4,
+        data: vec![[0.0; 3]; 15],
+    };
+    assert!(matches!(
+        sink.push(1, &bad),
+        Err(OutputError::BadFrameData { frame: 1, .. })
+    ));
+    // The rejected frames were not counted: frame 1 still follows frame 0.
+    sink.push(1, &HdrImage::new(4, 4)).unwrap();
+    assert_eq!(decode_gif_len(sink), 2);
+
+    let mut sink = Sink::create(&dir.path().join("w.gif"), &settings(), false).unwrap();
+    assert!(matches!(
+        sink.push(0, &HdrImage::new(70_000, 1)),
+        Err(OutputError::TooLarge { limit: 65535, .. })
+    ));
+    drop(sink);
+    assert_eq!(listing(dir.path()), vec!["c.gif"]);
+}
+
+#[test]
+fn sink_settings_are_checked_when_created() {
+    let dir = tempfile::tempdir().unwrap();
+    let gif = dir.path().join("a.gif");
+    for fps in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let s = OutputSettings { fps, ..settings() };
+        assert!(matches!(
+            Sink::create(&gif, &s, false),
+            Err(OutputError::InvalidSetting { name: "fps", .. })
+        ));
+        // Only a GIF has a frame rate.
+        Sink::create(&dir.path().join("a.png"), &s, true).unwrap();
+    }
+    for exposure in [-1.0, f64::NAN, f64::INFINITY] {
+        let s = OutputSettings {
+            exposure,
+            ..settings()
+        };
+        for name in ["a.gif", "a.png", "a.exr"] {
+            assert!(matches!(
+                Sink::create(&dir.path().join(name), &s, false),
+                Err(OutputError::InvalidSetting {
+                    name: "exposure",
+                    ..
+                })
+            ));
+        }
+    }
+    assert!(matches!(
+        Sink::create(&dir.path().join("a.jpg"), &settings(), false),
+        Err(OutputError::UnknownFormat { .. })
+    ));
+    assert!(matches!(
+        Sink::create(&dir.path().join("no").join("a.gif"), &settings(), false),
+        Err(OutputError::MissingDirectory { .. })
+    ));
+    let sub = dir.path().join("d.gif");
+    fs::create_dir(&sub).unwrap();
+    assert!(matches!(
+        Sink::create(&sub, &settings(), false),
+        Err(OutputError::IsDirectory { .. })
+    ));
+    fs::remove_dir(&sub).unwrap();
+    for name in ["a.gif", "a.png", "a.exr"] {
+        let sink = Sink::create(&dir.path().join(name), &settings(), true).unwrap();
+        assert!(matches!(sink.finish(), Err(OutputError::NoFrames { .. })));
+    }
+    assert!(listing(dir.path()).is_empty());
+}
+
+/// A renderer may hand the sink to another thread.
+#[test]
+fn sink_is_send() {
+    fn send<T: Send>() {}
+    send::<Sink>();
+}
+
+#[test]
+fn dropping_an_unfinished_gif_sink_removes_its_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("anim.gif");
+    let frames = animation();
+    let mut sink = Sink::create(&path, &settings(), false).unwrap();
+    for (i, f) in frames.iter().enumerate() {
+        sink.push(i, f).unwrap();
+    }
+    // Only the temporary file, which holds the frames so far.
+    let names = listing(dir.path());
+    assert_eq!(names.len(), 1);
+    assert_ne!(names[0], "anim.gif");
+    drop(sink);
+    assert!(listing(dir.path()).is_empty());
+}
+
+#[test]
+fn write_checks_every_frame_before_writing_any() {
+    let dir = tempfile::tempdir().unwrap();
+    let bad = HdrImage {
+        width: 4,
+        height: 4,
+        data: vec![[0.0; 3]; 3],
+    };
+    for name in ["a.png", "a.exr", "a.gif"] {
+        let frames = vec![gradient(4, 4, 0.0), gradient(4, 4, 1.0), bad.clone()];
+        assert!(matches!(
+            write(&dir.path().join(name), &frames, &settings()),
+            Err(OutputError::BadFrameData { frame: 2, .. })
+        ));
+    }
+    let mismatched = vec![gradient(4, 4, 0.0), gradient(4, 5, 1.0)];
+    assert!(matches!(
+        write(&dir.path().join("m.gif"), &mismatched, &settings()),
+        Err(OutputError::MismatchedFrames { frame: 1, .. })
+    ));
+    // Numbered PNGs may differ in size, as they always could.
+    write(&dir.path().join("m.png"), &mismatched, &settings()).unwrap();
+    assert_eq!(listing(dir.path()), vec!["m_0000.png", "m_0001.png"]);
+}
+
+#[test]
+fn a_failed_write_removes_its_temporary_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("x.png");
+    let e = write_temp(&path, |w| {
+        w.write_all(&[0; 100_000]).map_err(io_error(&path))?;
+        Err(OutputError::Encode {
+            path: path.clone(),
+            format: Format::Png,
+            message: "broken".to_string(),
+        })
+    })
+    .unwrap_err();
+    assert!(matches!(e, OutputError::Encode { .. }), "{e}");
+    assert!(listing(dir.path()).is_empty());
+
+    // A GIF whose file cannot be moved into place: a directory has taken its name.
+    let gif = dir.path().join("anim.gif");
+    let mut sink = Sink::create(&gif, &settings(), false).unwrap();
+    sink.push(0, &gradient(8, 8, 0.0)).unwrap();
+    fs::create_dir(&gif).unwrap();
+    fs::write(gif.join("inside"), "x").unwrap();
+    assert!(matches!(sink.finish(), Err(OutputError::Io { .. })));
+    assert_eq!(listing(dir.path()), vec!["anim.gif"]);
+    assert!(gif.is_dir());
+}
+
+#[test]
+fn stale_frames_lists_older_numbered_frames() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("seq.png");
+    for name in [
+        "seq_0000.png",
+        "seq_0001.png",
+        "seq_0006.PNG",
+        "seq_12345.png",
+        "seq_0003.png.bak",
+        "seq_003.png",
+        "seq_00a1.png",
+        "seq_0004.exr",
+        "seq0005.png",
+        "seq-0006.png",
+        "seq.png",
+        "other_0007.png",
+        "xseq_0008.png",
+        "seq_0009_0001.png",
+    ] {
+        fs::write(dir.path().join(name), "").unwrap();
+    }
+    fs::create_dir(dir.path().join("seq_0010.png")).unwrap();
+    let written = vec![dir.path().join("seq_0000.png")];
+    assert_eq!(
+        stale_frames(&path, &written),
+        ["seq_0001.png", "seq_0006.PNG", "seq_12345.png"]
+            .iter()
+            .map(|n| dir.path().join(n))
+            .collect::<Vec<_>>()
+    );
+    assert_eq!(stale_frames(&path, &[]).len(), 4);
+    // What `write` wrote is never stale.
+    let frames = vec![HdrImage::new(2, 2); 3];
+    let written = write(&path, &frames, &settings()).unwrap();
+    assert_eq!(
+        stale_frames(&path, &written.files),
+        vec![
+            dir.path().join("seq_0006.PNG"),
+            dir.path().join("seq_12345.png")
+        ]
+    );
+    assert_eq!(
+        stale_frames(&dir.path().join("seq.exr"), &[]),
+        vec![dir.path().join("seq_0004.exr")]
+    );
+    assert!(stale_frames(&dir.path().join("missing").join("seq.png"), &[]).is_empty());
+}
+
+#[test]
+fn numbered_names_are_what_numbered_path_makes() {
+    for (path, ext) in [
+        ("a/seq.png", Some("PNG")),
+        ("x.y.exr", Some("exr")),
+        ("bare", None),
+    ] {
+        let p = Path::new(path);
+        let stem = p.file_stem().unwrap();
+        for i in [0, 7, 9999, 123_456] {
+            let numbered = numbered_path(p, i);
+            let name = numbered.file_name().unwrap();
+            assert!(
+                is_numbered_name(name, stem, ext.map(OsStr::new)),
+                "{name:?}"
+            );
+        }
+    }
+    let (a, png) = (OsStr::new("a"), Some(OsStr::new("png")));
+    assert!(!is_numbered_name(OsStr::new("a_0001.png"), a, None));
+    assert!(!is_numbered_name(OsStr::new("a_0001"), a, png));
+    assert!(!is_numbered_name(OsStr::new("a_0001."), a, png));
+    assert!(!is_numbered_name(OsStr::new("a_.png"), a, png));
+}
