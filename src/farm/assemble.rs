@@ -4,9 +4,9 @@
 
 use super::FilmMeta;
 use super::films::{self, file_name};
+use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
-use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::output::{self, OutputSettings, Written};
 use crate::render::driver::Unit;
 use crate::render::integrator::Stats;
@@ -192,7 +192,8 @@ impl Finish {
 pub fn assemble(films: &Films, finish: &Finish, out: &Path) -> Result<Written> {
     use rayon::prelude::*;
     let (w, h) = (films.meta.width as usize, films.meta.height as usize);
-    let film = |paths: &[PathBuf]| -> Result<Film> { Ok(Film::from_sums(w, h, &films.sums(paths)?)) };
+    let film =
+        |paths: &[PathBuf]| -> Result<Film> { Ok(Film::from_sums(w, h, &films.sums(paths)?)) };
     let opts = AtrousOptions::default();
     // Neighbouring frames' guides are compared at common scales: a pass over the films first.
     let scales = if Denoiser::needs_scales(finish.denoise) {

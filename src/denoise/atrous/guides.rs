@@ -106,7 +106,6 @@ fn is_missed(n: DVec4) -> bool {
     n.length_squared() == 0.0
 }
 
-
 /// The largest footprint and colour variance of a set of frames, which set the scales the
 /// guides are stored at. Neighbouring frames' guides are compared, so every frame of an
 /// animation is stored at the same scales: a streaming filter learns them in a pass over the

@@ -52,9 +52,14 @@
 //!
 //! **Spatio-temporal**: a pass also takes the same 5x5 taps, centred on the same pixel, from the
 //! previous and the next frame, with frame weights `[1, 2, 1] / 4` and the same edge-stopping
-//! weights (against `p`'s guides). By default this happens on every pass, so the temporal support
-//! grows by a frame per pass (a binomial kernel over +-5 frames after 5 passes) the way the
-//! spatial support grows; [`Temporal::FirstPass`] and [`Temporal::Off`] restrict it. Because the
+//! weights (against `p`'s guides). By default this happens on the first pass only
+//! ([`Temporal::FirstPass`]); [`Temporal::AllPasses`] takes them on every pass, so the temporal
+//! support grows by a frame per pass the way the spatial support grows (a binomial kernel over
+//! +-5 frames after 5 passes), and [`Temporal::Off`] never. The default holds the fewest frames
+//! while streaming (see `stream`): every pass that reaches into neighbours holds about five more
+//! frames of state. Measured on `room` and `glass_box` (96x72, 9 frames, 4 spp, against 256 spp),
+//! all passes against the first pass only: RMSE 0.0540 against 0.0549 and 0.0465 against 0.0463,
+//! while the peak memory of 16 frames falls from 2.4x that of 4 frames to 1.14x. Because the
 //! position guide is the 4D hit position, a moving object's pixels in a neighbouring frame lie far
 //! from the background's (and vice versa) and are rejected: that is what prevents ghosting.
 //! Consequently the temporal taps only help where consecutive frames hit the same point to

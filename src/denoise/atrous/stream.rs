@@ -104,7 +104,9 @@ impl Stream {
         self.guides[k] = guides::of_frame(&film, &self.opts, self.scales);
         self.sizes[k] = self.guides[k].as_ref().map(|_| (film.width, film.height));
         let cur = match &self.guides[k] {
-            Some(g) => to_planes((g.w, g.h, g.s), |p| (film.color[p] / g.albedo[p]).to_array()),
+            Some(g) => to_planes((g.w, g.h, g.s), |p| {
+                (film.color[p] / g.albedo[p]).to_array()
+            }),
             None => Vec::new(),
         };
         self.films[k] = Some(film);
