@@ -91,6 +91,10 @@ pub struct RenderArgs {
     /// `hyperslice merge` puts the parts' films together.
     #[arg(long, value_name = "K/N", value_parser = parse_shard, requires = "films")]
     shard: Option<(u32, u32)>,
+    /// Remove numbered frames (out_0042.png) beyond the animation's last frame that an earlier,
+    /// longer render left beside the output (without it they are only reported).
+    #[arg(long)]
+    remove_stale: bool,
     /// Re-check and re-render whenever the scene or a file it imports changes, printing
     /// diagnostics instead of stopping on errors. Renders at `--quality draft` unless a
     /// quality is given.
@@ -309,11 +313,16 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
             shard.1
         )));
     }
+    // The budget is for the whole run: what finishing the frames will take is kept back.
+    let finishing = (args.time_budget.is_some() && shard.1 == 1)
+        .then(|| assemble::finishing_time(r, frames.len(), &out))
+        .transpose()?
+        .unwrap_or_default();
     let options = Options {
         threads: (r.threads > 0).then_some(r.threads as usize),
         light_sampling: args.light_sampling == Switch::On,
         sampler: args.sampler,
-        time_budget: args.time_budget,
+        time_budget: args.time_budget.map(|b| b.saturating_sub(finishing)),
         noise_threshold: args.noise_threshold,
         ..Options::default()
     };
@@ -391,9 +400,20 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         let secs = started.elapsed().as_secs_f64().max(1e-9);
         format!("{}/s samples", HumanCount((n as f64 / secs) as u64))
     };
+    let per_frame = (r.width as u64 * r.height as u64 * part_samples(&units)).max(1);
+    let before = earlier.complete;
     let progress = |n: u64| {
         bar.inc(n);
-        bar.set_message(rate(bar.position()));
+        if progressive {
+            bar.set_message(rate(bar.position()));
+        } else {
+            let done = (before + (bar.position() / per_frame) as usize).min(units.len());
+            bar.set_message(format!(
+                "{done}/{} frames, {}",
+                units.len(),
+                rate(bar.position())
+            ));
+        }
     };
     let monitor = driver::Monitor {
         progress: &progress,
@@ -451,8 +471,19 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
             fps: r.fps,
         },
     };
-    let written = assemble::assemble(&set, &finish, &out)?;
+    let bar = ProgressBar::with_draw_target(Some(units.len() as u64), ProgressDrawTarget::stderr());
+    bar.set_style(
+        ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed_precise} eta {eta}")
+            .expect("a valid template"),
+    );
+    let written = assemble::assemble(&set, &finish, &out, &|| bar.inc(1));
+    bar.finish_and_clear();
+    let written = written?;
     let finish_secs = finish_start.elapsed().as_secs_f64();
+    let stale: Vec<PathBuf> = output::stale_frames(&out, &written.files)
+        .into_iter()
+        .filter(|p| frame_number(p).is_some_and(|n| n >= r.frames))
+        .collect();
     if args.films.is_none() {
         // The output is written; the hidden films have served.
         std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
@@ -467,7 +498,57 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         frames: units.len(),
     };
     summary(args, &scene, &set.stats, &times, &written);
+    if let Some(budget) = args.time_budget
+        && started.elapsed() > budget
+    {
+        eprintln!(
+            "warning: the time budget of {:.1} s is too short for one sample per pixel of every frame; the run took {:.1} s\n  hint: a smaller --size, fewer frames, or a longer budget",
+            budget.as_secs_f64(),
+            started.elapsed().as_secs_f64()
+        );
+    }
+    report_stale(&stale, args.remove_stale, r.frames)
+}
+
+/// The frame number of a numbered file `stem_NNNN.ext`.
+fn frame_number(p: &Path) -> Option<u32> {
+    let stem = p.file_stem()?.to_str()?;
+    stem.rsplit_once('_')?.1.parse().ok()
+}
+
+/// Say which numbered frames of an earlier, longer render remain, or remove them.
+fn report_stale(stale: &[PathBuf], remove: bool, frames: u32) -> hyperslice::error::Result<()> {
+    let (Some(first), Some(last)) = (stale.first(), stale.last()) else {
+        return Ok(());
+    };
+    let span = if stale.len() == 1 {
+        first.display().to_string()
+    } else {
+        format!("{} .. {}", first.display(), last.display())
+    };
+    if remove {
+        for p in stale {
+            std::fs::remove_file(p).map_err(|source| hyperslice::output::OutputError::Io {
+                path: p.clone(),
+                source,
+            })?;
+        }
+        eprintln!(
+            "removed {} from an earlier, longer render: {span}",
+            plural(stale.len(), "frame")
+        );
+    } else {
+        eprintln!(
+            "warning: {} beyond this animation's {frames} frames remain from an earlier render: {span}\n  hint: --remove-stale removes them",
+            plural(stale.len(), "numbered file")
+        );
+    }
     Ok(())
+}
+
+/// Samples per pixel of each unit (they are alike).
+fn part_samples(units: &[hyperslice::render::driver::Unit]) -> u64 {
+    units.first().map_or(0, |u| u.samples.len() as u64)
 }
 
 /// How long this run took, and for how much work.
@@ -583,10 +664,12 @@ fn watch(args: &RenderArgs, color: bool) -> ExitCode {
     loop {
         let c = args.scene.compile(&args.file);
         args.scene.report(&c, color);
-        if let Some(scene) = c.scene.clone().filter(|_| !c.has_errors())
-            && let Err(e) = render(args, scene)
-        {
-            eprintln!("error: {e}");
+        if let Some(scene) = c.scene.clone().filter(|_| !c.has_errors()) {
+            match render(args, scene) {
+                Ok(()) => {}
+                Err(hyperslice::Error::Cancelled) => return ExitCode::from(130),
+                Err(e) => eprintln!("error: {e}"),
+            }
         }
         // The scene and its imports; their folders are watched, since editors often save by
         // replacing a file.
@@ -611,7 +694,11 @@ fn watch(args: &RenderArgs, color: bool) -> ExitCode {
             if files.len() == 1 { "" } else { "s" }
         );
         loop {
-            match rx.recv() {
+            if interrupted().load(Ordering::Relaxed) {
+                return ExitCode::from(130);
+            }
+            match rx.recv_timeout(Duration::from_millis(200)) {
+                Err(std::sync::mpsc::RecvTimeoutError::Timeout) => continue,
                 Ok(Ok(event))
                     if !event.kind.is_access()
                         && event.paths.iter().any(|p| files.contains(&canon(p))) =>
@@ -619,7 +706,7 @@ fn watch(args: &RenderArgs, color: bool) -> ExitCode {
                     break;
                 }
                 Ok(_) => {}
-                Err(_) => return ExitCode::FAILURE,
+                Err(std::sync::mpsc::RecvTimeoutError::Disconnected) => return ExitCode::FAILURE,
             }
         }
         // One save is often several events: let them settle.
@@ -685,7 +772,7 @@ pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
         set.frames.values().map(Vec::len).sum::<usize>(),
         m.spp
     );
-    let written = assemble::assemble(&set, &finish, &args.output)?;
+    let written = assemble::assemble(&set, &finish, &args.output, &|| {})?;
     eprintln!(
         "merged in {:.2} s ({} samples in the films)",
         start.elapsed().as_secs_f64(),

@@ -189,7 +189,12 @@ impl Finish {
 /// numbers when the animation has more than one frame. Frames stream through: each film is
 /// read when the denoiser wants it and written once it is final, so memory holds the
 /// denoiser's window, not the animation.
-pub fn assemble(films: &Films, finish: &Finish, out: &Path) -> Result<Written> {
+pub fn assemble(
+    films: &Films,
+    finish: &Finish,
+    out: &Path,
+    progress: &(dyn Fn() + Sync),
+) -> Result<Written> {
     use rayon::prelude::*;
     let (w, h) = (films.meta.width as usize, films.meta.height as usize);
     let film =
@@ -211,7 +216,63 @@ pub fn assemble(films: &Films, finish: &Finish, out: &Path) -> Result<Written> {
         for done in denoiser.push(film(paths)?) {
             sink.push(numbers[next] as usize, &done.image())?;
             next += 1;
+            progress();
         }
     }
     Ok(sink.finish()?)
+}
+
+/// About how long finishing `frames` frames of a render with settings `r` into `out` will
+/// take (denoising, encoding, and reading the films twice), so that a time budget can keep
+/// it back: measured on three small frames of noise, scaled by the pixels, with a margin.
+pub fn finishing_time(
+    r: &crate::scene::RenderSettings,
+    frames: usize,
+    out: &Path,
+) -> Result<std::time::Duration> {
+    use glam::{DVec3, DVec4};
+    let (w, h) = (64, 48);
+    let films: Vec<Film> = (0..3)
+        .map(|k| {
+            let mut f = Film::new(w, h);
+            for i in 0..w * h {
+                let noise = ((i * 7919 + k * 104_729) % 1000) as f64 / 1000.0;
+                f.color[i] = DVec3::splat(noise);
+                f.std_error[i] = DVec3::splat(0.1);
+                f.albedo[i] = DVec3::splat(0.5);
+                f.normal[i] = DVec4::new(0.0, 0.0, -1.0, 0.0);
+                f.position[i] = DVec4::new((i % w) as f64, (i / w) as f64, 3.0, k as f64);
+                f.samples[i] = r.spp;
+            }
+            f
+        })
+        .collect();
+    let dir = tempfile::tempdir().map_err(|source| Error::CreateDirectory {
+        path: std::env::temp_dir(),
+        source,
+    })?;
+    let name = out.file_name().unwrap_or_default();
+    let finish = Finish {
+        denoise: r.denoise,
+        output: OutputSettings {
+            exposure: r.exposure,
+            fps: r.fps,
+        },
+    };
+    let start = std::time::Instant::now();
+    let opts = AtrousOptions::default();
+    let scales = (films.iter()).fold(Scales::default(), |a, f| a.max(Scales::of(f, &opts)));
+    let mut denoiser = Denoiser::new(finish.denoise, films.len(), &opts, scales);
+    let mut sink = output::Sink::create(&dir.path().join(name), &finish.output, true)?;
+    let mut next = 0;
+    for f in films {
+        for done in denoiser.push(f) {
+            sink.push(next, &done.image())?;
+            next += 1;
+        }
+    }
+    sink.finish()?;
+    let per_pixel = start.elapsed().as_secs_f64() / (3 * w * h) as f64;
+    let pixels = r.width as f64 * r.height as f64 * frames as f64;
+    Ok(std::time::Duration::from_secs_f64(2.0 * per_pixel * pixels))
 }

@@ -430,7 +430,9 @@ pub fn render_units(
             if busy == 0 || monitor.cancelled() {
                 continue;
             }
-            if let (Some(deadline), Some(per)) = (deadline, spent_per_sample) {
+            // Every pixel takes at least its first pass, whatever the budget.
+            if let (Some(deadline), Some(per), true) = (deadline, spent_per_sample, pass.start > 0)
+            {
                 let expected = Duration::from_secs_f64(per * (busy as f64 * pass.len() as f64));
                 if Instant::now() + expected > deadline {
                     break;
