@@ -5,7 +5,8 @@
 #   bash scripts/slurm-test.sh           # the real renderer (cargo build --release)
 #   bash scripts/slurm-test.sh --stub    # scripts/slurm-test-stub.sh in its place
 #
-# It installs slurm-wlm and munge if sbatch is missing, writes /etc/slurm/slurm.conf for this
+# It builds the renderer (cargo build --release; it must have `render --shard` and `merge`),
+# installs slurm-wlm and munge if sbatch is missing, writes /etc/slurm/slurm.conf for this
 # host (keeping any earlier one aside and putting it back), starts munged, slurmctld and
 # slurmd, waits for the node to be idle, and then, through deploy/slurm/submit.sh, checks:
 #   1. frame shards: examples/tesseract.4ds as 3 shards of 3 frames, merged after the array
@@ -140,7 +141,7 @@ cleanup() {
     log "removing slurm-wlm and munge again"
     DEBIAN_FRONTEND=noninteractive apt-get purge -y -qq slurm-wlm slurmctld slurmd slurm-client munge >/dev/null
   fi
-  if [[ $keep == 1 ]] || ((rc != 0 || failed)); then
+  if [[ $keep == 1 ]] || { ((rc != 0 || failed)) && [[ -n $(find "$work" -type f -print -quit) ]]; }; then
     log "kept the work directory $work"
   else
     rm -rf "$work"
@@ -160,6 +161,30 @@ mkdir_tracked() {
     fi
   done
 }
+
+# (d) The renderer, or its stand-in: first, so that a binary without --shard fails early.
+if [[ $mode == stub ]]; then
+  bin=$root/scripts/slurm-test-stub.sh
+elif [[ -n ${HYPERSLICE:-} ]]; then
+  bin=$(realpath -- "$HYPERSLICE")
+else
+  bin=$root/target/release/hyperslice
+  [[ -x $HOME/.cargo/bin/cargo ]] && PATH=$HOME/.cargo/bin:$PATH
+  if command -v cargo >/dev/null; then
+    log "cargo build --release"
+    cargo build --release --quiet
+  elif [[ -x $bin ]]; then
+    log "no cargo here: testing the $bin already built"
+  else
+    die "no cargo to build target/release/hyperslice with; build it first or set HYPERSLICE"
+  fi
+fi
+[[ -x $bin ]] || die "$bin is not executable"
+help=$("$bin" render --help 2>&1 || true)
+if [[ $help != *--shard* ]] || ! "$bin" merge --help >/dev/null 2>&1; then
+  die "$bin has no \`render --shard\` or \`merge\` yet; \`bash scripts/slurm-test.sh --stub\` tests the Slurm side alone"
+fi
+unset HYPERSLICE
 
 # (a) Slurm and munge.
 if ! command -v sbatch >/dev/null || ! command -v slurmctld >/dev/null ||
@@ -249,22 +274,6 @@ done
 log "node $host is idle"
 t_ready=$(date +%s)
 
-# (d) The renderer, or its stand-in.
-if [[ $mode == stub ]]; then
-  bin=$root/scripts/slurm-test-stub.sh
-elif [[ -n ${HYPERSLICE:-} ]]; then
-  bin=$(realpath -- "$HYPERSLICE")
-else
-  log "cargo build --release"
-  cargo build --release --quiet
-  bin=$root/target/release/hyperslice
-fi
-[[ -x $bin ]] || die "$bin is not executable"
-help=$("$bin" render --help 2>&1 || true)
-if [[ $help != *--shard* ]] || ! "$bin" merge --help >/dev/null 2>&1; then
-  die "$bin has no \`render --shard\` or \`merge\` yet; \`bash scripts/slurm-test.sh --stub\` tests the Slurm side alone"
-fi
-unset HYPERSLICE
 
 # Checks and job bookkeeping.
 results=()
