@@ -18,7 +18,9 @@
 #   4. interrupted tasks resume: one task gets the time-limit warning (SIGUSR1 to the batch
 #      script: it stops the renderer and requeues itself), another is requeued as on
 #      preemption (`scontrol requeue`: SIGTERM); both carry on from their films, and the merge
-#      is again the single-machine render.
+#      is again the single-machine render;
+#   5. only with --time-limit (5 more minutes): a shard of about 80 s under a 1-minute time limit
+#      stops before the limit, requeues itself and resumes until it is done.
 # It prints `ok`/`FAIL` per check and a last PASS or FAIL line (exit status 0 or 1), then stops
 # the daemons it started and removes what it wrote (but not the packages it installed, unless
 # SLURM_TEST_REMOVE_PACKAGES=1).
@@ -26,6 +28,7 @@
 # Options and environment:
 #   --stub (or SLURM_TEST_STUB=1)  test the plumbing with the stub instead of the renderer
 #   --keep (or SLURM_TEST_KEEP=1)  keep the work directory (films, logs, outputs)
+#   --time-limit (or SLURM_TEST_TIME_LIMIT=1)  add check 5
 #   HYPERSLICE=PATH                the renderer to test instead of target/release/hyperslice
 #   SLURM_TEST_TIMEOUT=SECONDS     the longest wait for one check's jobs (default 600)
 #   SLURM_TEST_INTERRUPT_AFTER=S   how long check 4 lets its tasks run before interrupting (2)
@@ -43,16 +46,18 @@ conf=/etc/slurm/slurm.conf
 
 stub=${SLURM_TEST_STUB:-${SLURM_TEST_DRY:-0}}
 keep=${SLURM_TEST_KEEP:-0}
+time_limit=${SLURM_TEST_TIME_LIMIT:-0}
 for arg in "$@"; do
   case $arg in
     --stub | --dry) stub=1 ;;
     --keep) keep=1 ;;
+    --time-limit) time_limit=1 ;;
     -h | --help)
       sed -n '2,/^set -euo/p' "$0" | sed '$d; s/^# \{0,1\}//'
       exit 0
       ;;
     *)
-      echo "usage: $0 [--stub] [--keep]" >&2
+      echo "usage: $0 [--stub] [--keep] [--time-limit]" >&2
       exit 2
       ;;
   esac
@@ -109,7 +114,7 @@ cleanup() {
   set +e
   trap - INT TERM
   if ((rc != 0 && !reported)); then
-    echo "FAIL: scripts/slurm-test.sh ($mode): stopped with status $rc (line ${BASH_LINENO[0]})"
+    echo "FAIL: scripts/slurm-test.sh ($mode): stopped with status $rc"
   fi
   if ((${#job_ids[@]} > 0)) && [[ -f /run/slurmctld.pid ]]; then
     for id in "${job_ids[@]}"; do scancel "$id" 2>/dev/null; done
@@ -468,6 +473,34 @@ for k in "${interrupted[@]}"; do
 done
 single "$dir" "${args[@]}" || fail "$name: the single-machine render failed"
 compare "$name" "$dir"
+
+# 5. (--time-limit) A shard longer than its time limit: it stops before the limit, requeues
+# itself and resumes, as often as needed, without a signal from outside.
+if [[ $time_limit == 1 ]]; then
+  name="time limit"
+  dir=$work/time_limit
+  # About 80 s of work for one task with a 1-minute limit (the least Slurm has), stopping 30 s
+  # before the end (so it takes about three runs, several minutes with the requeue delays).
+  if [[ $mode == stub ]]; then
+    export STUB_SECONDS_PER_UNIT=4
+    args=(--frames 20 --seed 5)
+  else
+    args=(--size 96x72 --frames 2 --spp 2048 --seed 5 --denoise none)
+  fi
+  HYPERSLICE_TIME=1 HYPERSLICE_SIGNAL_LEAD=30 submit_case "$dir" 1 "${args[@]}"
+  unset STUB_SECONDS_PER_UNIT
+  timeout=$((timeout > 900 ? timeout : 900))
+  wait_jobs "$array" "$merge" || fail "$name: jobs $array and $merge still not done after $timeout s"
+  restarts=$(field "$(job_lines "${array}_0")" Restarts)
+  tlog=$dir/out.logs/render-${array}_0.out
+  if [[ ${restarts:-0} -ge 1 && $(task_state "$array" 0) == COMPLETED ]]; then
+    pass "$name: task ${array}_0 with --time=1 stopped and requeued itself $restarts time(s) ($(grep -c 'requeueing' "$tlog") before the limit) and finished"
+  else
+    fail "$name: task ${array}_0 [$(states "$array")]; log $tlog: $(tail -n 4 "$tlog" 2>/dev/null | tr '\n' '|')"
+  fi
+  single "$dir" "${args[@]}" || fail "$name: the single-machine render failed"
+  compare "$name" "$dir"
+fi
 
 t_end=$(date +%s)
 summary="${#results[@]} checks on Slurm $slurm_version, $mode renderer; cluster up in $((t_ready - t0)) s, checks took $((t_end - t_ready)) s"

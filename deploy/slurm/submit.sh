@@ -86,14 +86,16 @@ if [[ -n ${HYPERSLICE_SBATCH_ARGS:-} ]]; then
 fi
 
 array=${HYPERSLICE_ARRAY:-0-$((n - 1))}
+lead=${HYPERSLICE_SIGNAL_LEAD:-120}
+[[ $lead =~ ^[0-9]+$ ]] || die "HYPERSLICE_SIGNAL_LEAD must be a number of seconds, not '$lead'"
 render_opts=(
   --array "$array${HYPERSLICE_ARRAY_LIMIT:+%$HYPERSLICE_ARRAY_LIMIT}"
   --job-name "$name-render"
   --output "$logs/render-%A_%a.out"
   --open-mode append
   --requeue
-  --signal "B:USR1@${HYPERSLICE_SIGNAL_LEAD:-120}"
-  --export "ALL,HYPERSLICE_SHARDS=$n"
+  --signal "B:USR1@$lead"
+  --export "ALL,HYPERSLICE_SHARDS=$n,HYPERSLICE_SIGNAL_LEAD=$lead"
 )
 [[ -z ${HYPERSLICE_TIME:-} ]] || render_opts+=(--time "$HYPERSLICE_TIME")
 [[ -z ${HYPERSLICE_CPUS:-} ]] || render_opts+=(--cpus-per-task "$HYPERSLICE_CPUS")
