@@ -20,6 +20,11 @@
 //!   prints exactly these.
 //! - [`render()`] path-traces every frame on a thread pool (bit-identical whatever the number of
 //!   threads), reporting progress and stopping when asked; [`write()`] encodes the frames.
+//! - For long renders, [`farm`] splits the work into units (frames, or sample ranges of frames)
+//!   that [`render::driver::render_units`] keeps in film files as they finish, so a render
+//!   resumes where it stopped, runs as shards on several machines, and is finished (summed,
+//!   denoised as a stream, encoded frame by frame) by [`farm::assemble`] in memory that does
+//!   not grow with the number of frames.
 //!
 //! Every fallible step returns [`Result`] with the one [`Error`] type. The stages' own modules
 //! stay public for tests and benchmarks, but the items above are the API.
