@@ -484,17 +484,23 @@ pub fn render_units(
             if monitor.cancelled() {
                 break;
             }
-            for w in &mut work {
-                if w.saved.elapsed() >= CHECKPOINT {
-                    store.save(&w.progress(&tiles, r.width, r.height, false))?;
-                    w.saved = Instant::now();
-                }
-            }
+            pool.install(|| {
+                (work.par_iter_mut())
+                    .filter(|w| w.saved.elapsed() >= CHECKPOINT)
+                    .map(|w| {
+                        w.saved = Instant::now();
+                        store.save(&w.progress(&tiles, r.width, r.height, false))
+                    })
+                    .collect::<Result<Vec<()>>>()
+            })?;
         }
         let complete = !monitor.cancelled();
-        for w in &work {
-            store.save(&w.progress(&tiles, r.width, r.height, complete))?;
-        }
+        // Encoding films is real work (compression): the frames of a group in parallel.
+        pool.install(|| {
+            (work.par_iter())
+                .map(|w| store.save(&w.progress(&tiles, r.width, r.height, complete)))
+                .collect::<Result<Vec<()>>>()
+        })?;
         if !complete {
             return Err(Error::Cancelled);
         }
