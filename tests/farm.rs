@@ -369,7 +369,7 @@ fn an_interrupted_render_resumes_to_the_same_bytes() {
         "out.gif",
     ];
     let start = Instant::now();
-    let mut child = Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+    let child = Command::new(env!("CARGO_BIN_EXE_hyperslice"))
         .current_dir(d)
         .args(args)
         .stderr(Stdio::piped())
@@ -413,6 +413,7 @@ fn an_interrupted_render_resumes_to_the_same_bytes() {
 /// Peak memory (resident set) of a `hyperslice` run in `dir`, in kilobytes, from the kernel's
 /// own count for the child (`wait4`).
 #[cfg(target_os = "linux")]
+#[allow(clippy::zombie_processes)] // reaped by `wait4`, which `Child::wait` cannot stand in for
 fn peak_kb(dir: &Path, args: &[&str]) -> i64 {
     let child = std::process::Command::new(env!("CARGO_BIN_EXE_hyperslice"))
         .current_dir(dir)

@@ -183,8 +183,9 @@ impl Stream {
         };
         // Only the frames whose taps this frame's update reads need their sources.
         let mut sources = vec![Vec::new(); self.frames];
-        for j in k.saturating_sub(1)..(k + 2).min(self.frames) {
-            sources[j] = sources_of(j);
+        let near = k.saturating_sub(1)..(k + 2).min(self.frames);
+        for (s, j) in sources[near.clone()].iter_mut().zip(near) {
+            *s = sources_of(j);
         }
         let opts = &self.opts;
         let sc = opts.sigma_color_at(p as u32);
