@@ -293,6 +293,15 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         (None, Some((a, b))) => a..b.unwrap_or(r.frames),
         (None, None) => 0..r.frames,
     };
+    if let Some(f) = args.frame
+        && f >= r.frames
+    {
+        return Err(Error::Usage(format!(
+            "frame {f} is not in the animation: it has {} (0..{}); set `frames` in the scene or --frames to render more",
+            plural(r.frames as usize, "frame"),
+            r.frames
+        )));
+    }
     if frames.end > r.frames || frames.is_empty() {
         return Err(Error::Usage(format!(
             "frames {}..{} are not all in the animation: it has {} (0..{}); set `frames` in the scene or --frames to render more",
