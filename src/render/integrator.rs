@@ -478,10 +478,10 @@ fn normals_of(hits: &[Pending], grad: &mut Regs<Dual, LANES>, out: &mut Vec<DVec
     }));
 }
 
-/// Offset from a surface point along `side` (a unit normal), past the marching epsilon, so
-/// the next segment does not hit the same surface at once.
+/// Offset from a surface point along `side` (a unit normal), past the marching epsilon at the
+/// point (`eps`, see [`epsilon_at`]), so the next segment does not hit the same surface at once.
 fn leave(p: DVec4, side: DVec4, eps: f64) -> DVec4 {
-    p + side * (4.0 * epsilon_at(p, eps))
+    p + side * (4.0 * eps)
 }
 
 /// Russian roulette and the bounce count after a scattering event (`delta`: by a delta lobe);
@@ -624,7 +624,9 @@ fn shade(
     shadows: &mut Shadows,
     pixel: &mut PixelSums,
 ) -> bool {
-    let eps = s.limits.epsilon;
+    // The hit's precision is that of its cell's local coordinates, where its distance was
+    // evaluated, not of its distance from the origin.
+    let eps = epsilon_at(h.p - h.cell.origin, s.limits.epsilon);
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
     if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {
