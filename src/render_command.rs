@@ -485,8 +485,18 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed_precise} eta {eta}")
             .expect("a valid template"),
     );
-    let written = assemble::assemble(&set, &finish, &out, &|| bar.inc(1));
+    let monitor = driver::Monitor {
+        progress: &|n| bar.inc(n),
+        cancel: Some(interrupted()),
+    };
+    let written = assemble::assemble(&set, &finish, &out, monitor);
     bar.finish_and_clear();
+    if let Err(Error::Cancelled) = written {
+        eprintln!(
+            "interrupted while finishing: every frame's film is kept in {}\n  run the same command again to finish",
+            dir.display()
+        );
+    }
     let written = written?;
     let finish_secs = finish_start.elapsed().as_secs_f64();
     let stale: Vec<PathBuf> = output::stale_frames(&out, &written.files)
@@ -781,7 +791,17 @@ pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
         set.frames.values().map(Vec::len).sum::<usize>(),
         m.spp
     );
-    let written = assemble::assemble(&set, &finish, &args.output, &|| {})?;
+    let monitor = driver::Monitor {
+        progress: &|_| {},
+        cancel: Some(interrupted()),
+    };
+    let written = assemble::assemble(&set, &finish, &args.output, monitor);
+    if let Err(hyperslice::Error::Cancelled) = written {
+        eprintln!(
+            "interrupted: no image was written and the films are untouched; run the same command again"
+        );
+    }
+    let written = written?;
     eprintln!(
         "merged in {:.2} s ({} samples in the films)",
         start.elapsed().as_secs_f64(),

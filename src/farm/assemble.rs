@@ -8,11 +8,12 @@ use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
 use crate::output::{self, OutputSettings, Written};
-use crate::render::driver::Unit;
+use crate::render::driver::{Monitor, Unit};
 use crate::render::integrator::Stats;
 use crate::scene::Denoise;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::atomic::Ordering;
 
 /// The films of a render's frames, found and checked.
 pub struct Films {
@@ -188,13 +189,10 @@ impl Finish {
 /// Denoise and encode the frames of `films` to `out`; numbered files carry the frames' own
 /// numbers when the animation has more than one frame. Frames stream through: each film is
 /// read when the denoiser wants it and written once it is final, so memory holds the
-/// denoiser's window, not the animation.
-pub fn assemble(
-    films: &Films,
-    finish: &Finish,
-    out: &Path,
-    progress: &(dyn Fn() + Sync),
-) -> Result<Written> {
+/// denoiser's window, not the animation. `monitor` is told of each frame written; stopped,
+/// this returns [`Error::Cancelled`] and leaves no partial GIF (frames already written as
+/// files stay, and the films are untouched).
+pub fn assemble(films: &Films, finish: &Finish, out: &Path, monitor: Monitor) -> Result<Written> {
     use rayon::prelude::*;
     let (w, h) = (films.meta.width as usize, films.meta.height as usize);
     let film =
@@ -212,11 +210,15 @@ pub fn assemble(
     let mut sink = output::Sink::create(out, &finish.output, films.meta.frames > 1)?;
     let numbers: Vec<u32> = films.frames.keys().copied().collect();
     let mut next = 0;
+    let stopped = || monitor.cancel.is_some_and(|c| c.load(Ordering::Relaxed));
     for paths in films.frames.values() {
+        if stopped() {
+            return Err(Error::Cancelled);
+        }
         for done in denoiser.push(film(paths)?) {
             sink.push(numbers[next] as usize, &done.image())?;
             next += 1;
-            progress();
+            (monitor.progress)(1);
         }
     }
     Ok(sink.finish()?)
