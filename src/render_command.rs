@@ -58,8 +58,9 @@ pub struct RenderArgs {
     /// Denoising filter applied to the frames.
     #[arg(long)]
     denoise: Option<Denoise>,
-    /// Render progressively and stop when this much time is spent (e.g. 30s, 2m, 500ms); `spp`
-    /// becomes the most samples a pixel takes (default then 1000000).
+    /// Render progressively within this much time for the whole run, denoising and encoding
+    /// included (e.g. 30s, 2m, 500ms); every pixel takes at least one sample. `spp` becomes the
+    /// most samples a pixel takes (default then 1000000).
     #[arg(long, value_parser = parse_duration)]
     time_budget: Option<Duration>,
     /// Adaptive sampling: a pixel stops once the standard error of its luminance is below this
