@@ -144,7 +144,11 @@ fn parse_range(s: &str) -> Result<(u32, Option<u32>), String> {
     let a: u32 = a.trim().parse().map_err(|_| err())?;
     let b: Option<u32> = match b.trim() {
         "" if !inclusive => None,
-        b => Some(b.parse::<u32>().map_err(|_| err())? + inclusive as u32),
+        b => Some(
+            (b.parse::<u32>().map_err(|_| err())?)
+                .checked_add(inclusive as u32)
+                .ok_or_else(err)?,
+        ),
     };
     if b.is_some_and(|b| b <= a) {
         return Err(format!("`{s}` holds no frames"));
@@ -338,9 +342,25 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     };
     let dir = args.films.clone().unwrap_or_else(|| hidden_films(&out));
     let name = args.file.file_name().unwrap_or_default().to_string_lossy();
-    let films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+    let mut films = FilmDir::open(&dir, &scene, &name, &options, part)?;
     let units = part.units(r.spp);
-    let earlier = films.survey(&units)?;
+    let earlier = match films.survey(&units) {
+        // The hidden films of an earlier, interrupted render of another scene or other
+        // settings: nobody asked to keep them, and they cannot be used.
+        Err(Error::FilmMismatch { ours, theirs, .. }) if args.films.is_none() => {
+            eprintln!(
+                "note: {} held an interrupted render with `{theirs}` where this one has `{ours}`; starting afresh",
+                dir.display()
+            );
+            std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
+                path: dir.clone(),
+                source,
+            })?;
+            films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+            films.survey(&units)?
+        }
+        other => other?,
+    };
     eprintln!(
         "rendering {}: {} x {}, {}{}{}, {} spp, {} bounces",
         args.file.display(),

@@ -260,6 +260,27 @@ fn a_film_directory_of_another_render_is_refused() {
         "{err}"
     );
     assert!(!d.join("c.gif").exists());
+    // A time budget groups samples into other passes: its films are not these.
+    let o = render(
+        d,
+        &["-o", "c.gif", "--films", "films", "--time-budget", "1m"],
+    );
+    let err = stderr(&o);
+    assert!(
+        err.contains("progressive false") && err.contains("progressive true"),
+        "{err}"
+    );
+    // The hidden films of another render (the user never named them) give way.
+    ok(render(d, &["-o", "h.gif", "--films", ".h.gif.films"]));
+    let err = ok(render(d, &["-o", "h.gif", "--seed", "7"]));
+    assert!(err.contains("starting afresh"), "{err}");
+    assert!(!d.join(".h.gif.films").exists());
+    let o = render(d, &["-o", "x.gif", "--frame-range", "0..=4294967295"]);
+    assert!(
+        stderr(&o).contains("is not a frame range"),
+        "{}",
+        stderr(&o)
+    );
     std::fs::write(
         d.join("scene2.4ds"),
         LIT_BALL.replace("0.8, 0.3", "0.7, 0.3"),

@@ -29,8 +29,15 @@ impl Films {
     /// The films of `units`, all in `dir` (a render's own).
     pub fn of_units(dir: &Path, units: &[Unit], spp: u32) -> Result<Films> {
         let paths: Vec<PathBuf> = units.iter().map(|u| dir.join(file_name(u, spp))).collect();
-        let metas = (paths.iter())
-            .map(|p| films::read_meta(p))
+        let metas = (paths.iter().enumerate())
+            .map(|(i, p)| {
+                let mut m = films::read_meta(p)?;
+                // Only the first description is kept (see `scan`).
+                if i > 0 {
+                    m.description = String::new();
+                }
+                Ok(m)
+            })
             .collect::<Result<Vec<_>>>()?;
         Films::new(paths.into_iter().zip(metas).collect())
     }
@@ -39,6 +46,8 @@ impl Films {
     /// fingerprint, every shard's every unit present and finished.
     pub fn scan(dirs: &[PathBuf]) -> Result<Films> {
         let mut found: BTreeMap<String, (PathBuf, FilmMeta)> = BTreeMap::new();
+        // The first film read, whole: the others are checked against it.
+        let mut reference: Option<FilmMeta> = None;
         for dir in dirs {
             let entries = std::fs::read_dir(dir).map_err(|source| Error::ReadFilms {
                 path: dir.clone(),
@@ -51,7 +60,14 @@ impl Films {
                 .collect();
             names.sort();
             for (name, path) in names {
-                let meta = films::read_meta(&path)?;
+                let mut meta = films::read_meta(&path)?;
+                // One description is enough to say what differs; the others would make
+                // memory grow with the frames.
+                match &reference {
+                    None => reference = Some(meta.clone()),
+                    Some(r) if r.fingerprint == meta.fingerprint => meta.description.clear(),
+                    Some(_) => {}
+                }
                 if let Some((first, _)) = found.get(&name) {
                     return Err(Error::MergeDuplicate {
                         name,
@@ -62,12 +78,11 @@ impl Films {
                 found.insert(name, (path, meta));
             }
         }
-        let Some((_, (_, first))) = found.iter().next() else {
+        let Some(first) = reference else {
             return Err(Error::NoFilms {
                 dirs: dirs.to_vec(),
             });
         };
-        let first = first.clone();
         for (path, meta) in found.values() {
             if meta.fingerprint != first.fingerprint || meta.part.frames != first.part.frames {
                 let fp = super::Fingerprint {

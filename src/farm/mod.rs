@@ -53,8 +53,9 @@ pub struct FilmMeta {
 }
 
 /// What decides a render's pixels: the scene (shapes, materials, camera, and the render
-/// settings that change samples) and the options that change the estimator; not the denoiser,
-/// exposure, frame rate, threads or time budget, which only finish or pace the same samples.
+/// settings that change samples), the options that change the estimator, and whether the
+/// render is progressive (which groups samples into other passes); not the denoiser, exposure,
+/// frame rate, threads or the budget's length, which only finish or pace the samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fingerprint {
     pub digest: String,
@@ -75,7 +76,7 @@ impl Fingerprint {
         );
         let description = format!(
             "hyperslice {} film format {FORMAT}\n\
-             options light_sampling {}  sampler {:?}  roulette_from {}  general {}  noise_threshold {:?}\n\
+             options light_sampling {}  sampler {:?}  roulette_from {}  general {}  noise_threshold {:?}  progressive {}\n\
              {s}",
             env!("CARGO_PKG_VERSION"),
             options.light_sampling,
@@ -83,6 +84,9 @@ impl Fingerprint {
             options.roulette_from,
             options.general,
             options.noise_threshold,
+            // A time budget changes how samples are grouped into passes (and how many are
+            // taken), so films of a budgeted render are not those of a fixed-spp one.
+            options.time_budget.is_some() || options.noise_threshold.is_some(),
         );
         let digest = Sha256::digest(description.as_bytes());
         Fingerprint {
