@@ -2,7 +2,7 @@
 //! a progress bar, and write the frames.
 
 use clap::Args;
-use hyperslice::output::{self, OutputSettings};
+use hyperslice::output;
 use hyperslice::render::driver::{self, Options};
 use hyperslice::render::sampler::SamplerKind;
 use hyperslice::scene::{Denoise, Quality, RenderSettings, Scene};
@@ -255,11 +255,11 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
 
 /// Set by SIGINT or SIGTERM; a second signal exits at once.
 fn interrupted() -> &'static AtomicBool {
-    static FLAG: OnceLock<&'static AtomicBool> = OnceLock::new();
-    FLAG.get_or_init(|| {
-        let flag: &'static AtomicBool = Box::leak(Box::new(AtomicBool::new(false)));
-        let installed = ctrlc::set_handler(move || {
-            if flag.swap(true, Ordering::SeqCst) {
+    static FLAG: AtomicBool = AtomicBool::new(false);
+    static HANDLER: OnceLock<()> = OnceLock::new();
+    HANDLER.get_or_init(|| {
+        let installed = ctrlc::set_handler(|| {
+            if FLAG.swap(true, Ordering::SeqCst) {
                 eprintln!("\ninterrupted again: stopping now");
                 std::process::exit(130);
             }
@@ -268,8 +268,8 @@ fn interrupted() -> &'static AtomicBool {
         if let Err(e) = installed {
             eprintln!("warning: cannot catch interrupts ({e}); an interrupted render keeps only finished frames");
         }
-        flag
-    })
+    });
+    &FLAG
 }
 
 /// The hidden film directory beside `out` for a render without `--films`.
@@ -494,13 +494,7 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         },
         plural(units.len(), "frame")
     );
-    let finish = assemble::Finish {
-        denoise: r.denoise,
-        output: OutputSettings {
-            exposure: r.exposure,
-            fps: r.fps,
-        },
-    };
+    let finish = assemble::Finish::of_render(r);
     let bar = ProgressBar::with_draw_target(Some(units.len() as u64), ProgressDrawTarget::stderr());
     bar.set_style(
         ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed_precise} eta {eta}")
@@ -548,6 +542,20 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         );
     }
     report_stale(&stale, args.remove_stale, r.frames)
+}
+
+/// Say which files were written.
+fn report_written(written: &output::Written) {
+    match written.files.as_slice() {
+        [] => {}
+        [one] => eprintln!("wrote {}", one.display()),
+        [first, .., last] => eprintln!(
+            "wrote {} files: {} .. {}",
+            written.files.len(),
+            first.display(),
+            last.display()
+        ),
+    }
 }
 
 /// The frame number of a numbered file `stem_NNNN.ext`.
@@ -677,15 +685,7 @@ fn summary(
         });
         println!("{stats}");
     }
-    match written.files.as_slice() {
-        [one] => eprintln!("wrote {}", one.display()),
-        files => eprintln!(
-            "wrote {} files: {} .. {}",
-            files.len(),
-            files[0].display(),
-            files[files.len() - 1].display()
-        ),
-    }
+    report_written(written);
 }
 
 /// `render --watch`: check and render, then wait for a change to any file the scene was read
@@ -828,14 +828,6 @@ pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
         start.elapsed().as_secs_f64(),
         HumanCount(set.stats.samples)
     );
-    match written.files.as_slice() {
-        [one] => eprintln!("wrote {}", one.display()),
-        files => eprintln!(
-            "wrote {} files: {} .. {}",
-            files.len(),
-            files[0].display(),
-            files[files.len() - 1].display()
-        ),
-    }
+    report_written(&written);
     Ok(())
 }

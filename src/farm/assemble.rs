@@ -188,6 +188,17 @@ pub struct Finish {
 }
 
 impl Finish {
+    /// A render's own settings.
+    pub fn of_render(r: &crate::scene::RenderSettings) -> Finish {
+        Finish {
+            denoise: r.denoise,
+            output: OutputSettings {
+                exposure: r.exposure,
+                fps: r.fps,
+            },
+        }
+    }
+
     /// The settings the films were rendered with.
     pub fn of(meta: &FilmMeta) -> Finish {
         use clap::ValueEnum;
@@ -269,13 +280,7 @@ pub fn finishing_time(
         source,
     })?;
     let name = out.file_name().unwrap_or_default();
-    let finish = Finish {
-        denoise: r.denoise,
-        output: OutputSettings {
-            exposure: r.exposure,
-            fps: r.fps,
-        },
-    };
+    let finish = Finish::of_render(r);
     let start = std::time::Instant::now();
     let opts = AtrousOptions::default();
     let scales = (films.iter()).fold(Scales::default(), |a, f| a.max(Scales::of(f, &opts)));
