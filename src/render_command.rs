@@ -623,7 +623,7 @@ fn summary(
     let pixels = r.width as f64 * r.height as f64 * frames;
     let rate = t.samples as f64 / render_secs.max(1e-9);
     eprintln!(
-        "rendered in {render_secs:.2} s: {} samples ({}{}/s, {:.1} per pixel), {} distance evaluations",
+        "rendered in {render_secs:.2} s: {} samples ({}{}/s, {:.1} per pixel), {} distance evaluations ({:.1} instructions each)",
         HumanCount(s.samples),
         if t.samples == s.samples {
             String::new()
@@ -632,7 +632,8 @@ fn summary(
         },
         HumanCount(rate as u64),
         s.samples as f64 / pixels,
-        HumanCount(s.evaluations)
+        HumanCount(s.evaluations),
+        s.instructions as f64 / s.evaluations.max(1) as f64
     );
     eprintln!(
         "{} in {finish_secs:.2} s ({:.1} frames/s)",
@@ -676,6 +677,7 @@ fn summary(
             "samples_per_second": rate,
             "samples_per_pixel": s.samples as f64 / pixels,
             "distance_evaluations": s.evaluations,
+            "instructions": s.instructions,
             "out_of_steps": s.out_of_steps,
             "dropped": s.dropped,
             "denoise": r.denoise.name(),

@@ -85,8 +85,9 @@ pub fn fold(g: &Graph, n: &Node) -> Option<f64> {
         n if n.arity() > 1 => return None,
         n => (n, 0),
     };
-    let args: Option<Vec<f64>> = t.children().iter().map(|c| g.constant(*c)).collect();
-    args?;
+    if !t.children().iter().all(|c| g.constant(*c).is_some()) {
+        return None;
+    }
     let mut out = [0.0; 8];
     node(&t, |c| g.constant(c).unwrap_or(f64::NAN), &mut out);
     Some(out[j])

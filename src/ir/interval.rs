@@ -181,7 +181,13 @@ impl Intervals {
     fn node(&mut self, id: u32, n: Node, vars: &impl Fn(Var) -> I) -> I {
         let g = |x: Id| self.vals[x.0 as usize];
         let v4 = |v: [Id; 4]| v.map(g);
-        let row = |r: &[super::K]| -> Vec<f64> { r.iter().map(|x| x.get()).collect() };
+        let row = |r: &[super::K]| -> [f64; 9] {
+            let mut out = [0.0; 9];
+            for (o, x) in out.iter_mut().zip(r) {
+                *o = x.get();
+            }
+            out
+        };
         let tuple: Vec<I> = match n {
             Node::Var(v) => return vars(v),
             Node::Const(c) => return I::point(c.get()),

@@ -111,17 +111,17 @@ pub enum Node {
 
 impl Node {
     /// The node's operands, in order.
-    pub fn children(&self) -> Vec<Id> {
-        match *self {
-            Node::Var(_) | Node::Const(_) => vec![],
-            Node::Un(_, a) | Node::Rep(a, _) | Node::Proj(a, _) => vec![a],
-            Node::Bin(_, a, b) => vec![a, b],
-            Node::Select(a, b, c) | Node::SMin(a, b, c) | Node::SMax(a, b, c) => vec![a, b, c],
-            Node::MinId(a, b, c, _) => vec![a, b, c],
-            Node::Length(v, _) | Node::Affine(v, _) | Node::BoxDist(v, _) | Node::D4(v) => {
-                v.to_vec()
-            }
-        }
+    pub fn children(&self) -> Operands {
+        let z = Id(0);
+        let (ids, len) = match *self {
+            Node::Var(_) | Node::Const(_) => ([z; 4], 0),
+            Node::Un(_, a) | Node::Rep(a, _) | Node::Proj(a, _) => ([a, z, z, z], 1),
+            Node::Bin(_, a, b) => ([a, b, z, z], 2),
+            Node::Select(a, b, c) | Node::SMin(a, b, c) | Node::SMax(a, b, c) => ([a, b, c, z], 3),
+            Node::MinId(a, b, c, _) => ([a, b, c, z], 3),
+            Node::Length(v, _) | Node::Affine(v, _) | Node::BoxDist(v, _) | Node::D4(v) => (v, 4),
+        };
+        Operands { ids, len }
     }
 
     /// The same node with its operands renamed.
@@ -151,6 +151,28 @@ impl Node {
             Node::Rep(..) | Node::MinId(..) => 2,
             _ => 1,
         }
+    }
+}
+
+/// A node's operands, without allocating (graph passes visit every node).
+#[derive(Clone, Copy, Debug)]
+pub struct Operands {
+    ids: [Id; 4],
+    len: usize,
+}
+
+impl std::ops::Deref for Operands {
+    type Target = [Id];
+    fn deref(&self) -> &[Id] {
+        &self.ids[..self.len]
+    }
+}
+
+impl IntoIterator for Operands {
+    type Item = Id;
+    type IntoIter = std::iter::Take<std::array::IntoIter<Id, 4>>;
+    fn into_iter(self) -> Self::IntoIter {
+        self.ids.into_iter().take(self.len)
     }
 }
 
@@ -216,6 +238,20 @@ impl Graph {
                 let n = self.get(Id(i as u32)).map(|c| map[c.0 as usize]);
                 map[i] = add(&mut g, n);
             }
+        }
+        (g, map)
+    }
+
+    /// The nodes `roots` need, copied in order into a graph without an interning index
+    /// (they are distinct already): a graph to read, prune and compile, built without
+    /// hashing. Nodes interned into it later are not shared with these.
+    pub fn compact(&self, roots: &[Id]) -> (Graph, Vec<Id>) {
+        let live = self.live(roots);
+        let mut g = Graph::new();
+        let mut map = vec![Id(u32::MAX); self.len()];
+        for i in (0..self.len()).filter(|i| live[*i]) {
+            map[i] = Id(g.nodes.len() as u32);
+            g.nodes.push(self.nodes[i].map(|c| map[c.0 as usize]));
         }
         (g, map)
     }

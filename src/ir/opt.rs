@@ -65,6 +65,24 @@ pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
                 Bin::Min | Bin::Max if same => return a,
                 Bin::Min if ca == Some(f64::INFINITY) => return b,
                 Bin::Min if cb == Some(f64::INFINITY) => return a,
+                // Constants (the bounds pruning cuts far distances to) rise to the top of a
+                // chain of `min`s, where they fold into one immediate.
+                Bin::Min if ca.is_none() && cb.is_none() => {
+                    if let Some(id) = float_constants(g, a, b) {
+                        return id;
+                    }
+                }
+                Bin::Min if ca.is_some() && cb.is_none() => {
+                    return simplify(g, Node::Bin(op, b, a), t);
+                }
+                Bin::Min if cb.is_some() => {
+                    if let Node::Bin(Bin::Min, x, y) = g.get(a)
+                        && let Some(ky) = c(y)
+                    {
+                        let k = k(g, ky.min(cb.unwrap_or(ky)));
+                        return g.intern(Node::Bin(Bin::Min, x, k));
+                    }
+                }
                 Bin::Max if ca == Some(f64::NEG_INFINITY) => return b,
                 Bin::Max if cb == Some(f64::NEG_INFINITY) => return a,
                 _ => {}
@@ -107,6 +125,24 @@ pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
         _ => {}
     }
     g.intern(n)
+}
+
+/// `min(a, b)` with the constant of `a = min(x, k)` or `b = min(y, k)` lifted out of it:
+/// `min(min(x, y), k)`; `None` when neither has one.
+fn float_constants(g: &mut Graph, a: Id, b: Id) -> Option<Id> {
+    let split = |g: &Graph, x: Id| match g.get(x) {
+        Node::Bin(Bin::Min, y, k) => g.constant(k).map(|k| (y, k)),
+        _ => None,
+    };
+    let (sa, sb) = (split(g, a), split(g, b));
+    if sa.is_none() && sb.is_none() {
+        return None;
+    }
+    let (x, ka) = sa.unwrap_or((a, f64::INFINITY));
+    let (y, kb) = sb.unwrap_or((b, f64::INFINITY));
+    let rest = simplify(g, Node::Bin(Bin::Min, x, y), None);
+    let k = k(g, ka.min(kb));
+    Some(simplify(g, Node::Bin(Bin::Min, rest, k), None))
 }
 
 /// Inputs of the form `x + c` feed `x` with the offset `c` added to the operation's own.

@@ -5,6 +5,13 @@
 //! variables are moved to the box's own origin (`old = new + shift`) and the offset is folded
 //! into the operations in `f64`, so an `f32` tape of the result keeps its precision however
 //! far the box is from the world's origin.
+//!
+//! Beyond exact pruning, a box of diagonal `reach` may drop what is far from it (the Lipschitz
+//! pruning of Barbier et al., Eurographics 2025): a distance that every root reads only
+//! through nondecreasing operations and that is at least `reach` everywhere in the box is
+//! replaced by that bound. The result is then a lower bound of the distance, 1-Lipschitz, and
+//! exact wherever it is below `reach`: a ray step no longer than the box's diagonal is all the
+//! cut could have changed.
 
 use super::interval::{I, Intervals, min_id_choice};
 use super::opt::simplify;
@@ -19,9 +26,30 @@ pub struct Pruned {
     pub bounds: Vec<I>,
 }
 
-/// `roots` of `g` for points `new + shift` with `new` in `region` (local coordinates).
-pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4]) -> Pruned {
+/// What the bounds over the box decide for one node of the graph being pruned.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Plan {
+    /// Not needed by the pruned roots.
+    Dead,
+    /// Kept, with every operand.
+    Keep,
+    /// The node equals its operand.
+    Same(Id),
+    /// Far from the box: its lower bound there stands for it.
+    Bound(f64),
+    /// A min-with-id that reduces to one pair: `d` (`true`) or `best`.
+    Pair(bool),
+}
+
+/// `roots` of `g` for points `new + shift` with `new` in `region` (local coordinates),
+/// exact where below `reach` (infinity: exact everywhere).
+///
+/// The bounds of `g` itself decide first, from the roots down, which nodes the result needs;
+/// only those are built, so a box where most of a large union is cut costs little more than
+/// one interval pass over `g`.
+pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4], reach: f64) -> Pruned {
     let live = g.live(roots);
+    let plan = plan(g, roots, &live, region, shift, reach);
     let mut out = Graph::new();
     // The point variables first: they get the smallest ids, so `x + c` keeps the constant
     // second, the form the optimiser folds into offsets.
@@ -38,10 +66,14 @@ pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4]) -> Pruned
     let mut map = vec![Id(u32::MAX); g.len()];
     // Min-with-id tuples that reduce to one operand: what their two projections read.
     let mut decided: FxHashMap<u32, [Id; 2]> = FxHashMap::default();
-    for i in (0..g.len()).filter(|i| live[*i]) {
+    for i in 0..g.len() {
         let n = g.get(Id(i as u32));
-        let new = match n {
-            Node::Var(v) if Var::POINT.contains(&v) => {
+        let new = match (plan[i], n) {
+            (Plan::Dead, _) => continue,
+            (Plan::Bound(lo), _) => out.intern(Node::Const(K::new(lo))),
+            (Plan::Same(c), _) => map[c.0 as usize],
+            (Plan::Pair(_), _) => continue,
+            (_, Node::Var(v)) if Var::POINT.contains(&v) => {
                 let x = out.intern(n);
                 let s = shift[v.index()];
                 if s == 0.0 {
@@ -51,15 +83,22 @@ pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4]) -> Pruned
                     simplify(&mut out, Node::Bin(Bin::Add, x, c), None)
                 }
             }
-            Node::Proj(t, j) if decided.contains_key(&t.0) => decided[&t.0][j as usize],
+            (_, Node::Proj(t, j)) if decided.contains_key(&t.0) => decided[&t.0][j as usize],
+            (_, Node::Proj(t, j)) if matches!(plan[t.0 as usize], Plan::Pair(_)) => {
+                let Node::MinId(best, best_id, d, id) = g.get(t) else {
+                    unreachable!("pairs are min-with-ids")
+                };
+                match (plan[t.0 as usize] == Plan::Pair(true), j) {
+                    (true, 0) => map[d.0 as usize],
+                    (true, _) => out.intern(Node::Const(id)),
+                    (false, 0) => map[best.0 as usize],
+                    (false, _) => map[best_id.0 as usize],
+                }
+            }
             _ => {
                 let m = n.map(|c| map[c.0 as usize]);
-                // Against an infinite `best` (no object yet) the pair only differs where `d`
-                // is infinite too, which no ray can hit: take `d`.
-                let first = |best: Id| iv.get(best) == I::point(f64::INFINITY);
                 if let Node::MinId(best, best_id, d, id) = m
-                    && let Some(take_d) =
-                        min_id_choice(iv.get(best), iv.get(d)).or(first(best).then_some(true))
+                    && let Some(take_d) = pair(iv.get(best), iv.get(d))
                 {
                     let pair = if take_d {
                         [d, out.intern(Node::Const(id))]
@@ -82,12 +121,111 @@ pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4]) -> Pruned
     }
     let kept: Vec<Id> = roots.iter().map(|r| map[r.0 as usize]).collect();
     let bounds = kept.iter().map(|r| iv.get(*r)).collect();
-    let (graph, m) = out.rebuild(&kept, |g, n| g.intern(n));
+    let (graph, m) = out.compact(&kept);
     Pruned {
         graph,
         roots: kept.iter().map(|r| m[r.0 as usize]).collect(),
         bounds,
     }
+}
+
+/// Which operand of a min-with-id the bounds choose (`Some(true)`: `d`). Against an infinite
+/// `best` (no object yet) the pair only differs where `d` is infinite too, which no ray can
+/// hit: take `d`.
+fn pair(best: I, d: I) -> Option<bool> {
+    min_id_choice(best, d).or((best == I::point(f64::INFINITY)).then_some(true))
+}
+
+/// The plan of every node of `g` for the box: bounds over it (in `g`'s own coordinates,
+/// `new + shift`) decide the choices and the cuts, from the roots down, so that nodes only
+/// a dropped branch reads are never built.
+fn plan(
+    g: &Graph,
+    roots: &[Id],
+    live: &[bool],
+    region: [I; 4],
+    shift: [f64; 4],
+    reach: f64,
+) -> Vec<Plan> {
+    let vars = |v: Var| match v {
+        Var::X | Var::Y | Var::Z | Var::W => {
+            let (r, s) = (region[v.index()], shift[v.index()]);
+            I::new(r.lo + s, r.hi + s)
+        }
+        Var::NX | Var::NY | Var::NZ | Var::NW => I::new(-1.0, 1.0),
+        Var::T => I::ALL,
+    };
+    let iv = Intervals::of(g, &vars, Some(live));
+    let cuttable = cuttable(g, live);
+    let mut plan = vec![Plan::Dead; g.len()];
+    for r in roots {
+        plan[r.0 as usize] = Plan::Keep;
+    }
+    let need = |plan: &mut [Plan], c: Id| {
+        if plan[c.0 as usize] == Plan::Dead {
+            plan[c.0 as usize] = Plan::Keep;
+        }
+    };
+    for i in (0..g.len()).rev() {
+        if plan[i] == Plan::Dead {
+            continue;
+        }
+        let n = g.get(Id(i as u32));
+        let far = iv.get(Id(i as u32)).lo;
+        plan[i] = if cuttable[i] && far >= reach {
+            Plan::Bound(far)
+        } else if let Node::MinId(best, best_id, d, _) = n
+            && let Some(take_d) = pair(iv.get(best), iv.get(d))
+        {
+            if take_d {
+                need(&mut plan, d);
+            } else {
+                need(&mut plan, best);
+                need(&mut plan, best_id);
+            }
+            Plan::Pair(take_d)
+        } else if let Ok(c) = choose(&iv, n) {
+            need(&mut plan, c);
+            Plan::Same(c)
+        } else {
+            for c in n.children() {
+                need(&mut plan, c);
+            }
+            Plan::Keep
+        };
+    }
+    plan
+}
+
+/// Which live nodes are distances that every root reads only through nondecreasing
+/// operations: `min`, `max`, the running min-with-id (both its distances, and its object
+/// through the nearest-object projection, which only needs to be right where the distance is
+/// below the cut) and `abs` (whose operand is positive wherever a cut changes it). Object
+/// ids are never cut.
+fn cuttable(g: &Graph, live: &[bool]) -> Vec<bool> {
+    // Whether nothing but nondecreasing reads reach the node; parents come after children.
+    let mut open = live.to_vec();
+    for i in (0..g.len()).rev().filter(|i| live[*i]) {
+        let n = g.get(Id(i as u32));
+        let passes = open[i]
+            && match n {
+                Node::Bin(Bin::Min | Bin::Max, ..) | Node::Un(Un::Abs, _) | Node::MinId(..) => true,
+                Node::Proj(t, _) => matches!(g.get(t), Node::MinId(..)),
+                _ => false,
+            };
+        if !passes {
+            for c in n.children() {
+                open[c.0 as usize] = false;
+            }
+        }
+    }
+    for (i, o) in open.iter_mut().enumerate() {
+        *o &= !matches!(
+            g.get(Id(i as u32)),
+            Node::Const(_) | Node::Proj(_, 1) | Node::MinId(..)
+        );
+    }
+    open
 }
 
 /// The operand `n` reduces to over the bounds (`Ok`), or the node to add in its place.

@@ -60,6 +60,9 @@ pub struct Stats {
     pub samples: u64,
     /// Distance evaluations while marching.
     pub evaluations: u64,
+    /// Tape instructions those evaluations ran.
+    #[serde(default)]
+    pub instructions: u64,
     /// Ray segments that ran out of marching steps (their paths end there).
     pub out_of_steps: u64,
     /// Samples whose radiance came out NaN or infinite, dropped from the image.
@@ -68,10 +71,19 @@ pub struct Stats {
     pub shadow_rays: u64,
 }
 
+impl Stats {
+    /// Add the marcher's work since its counts were `before` (evaluations, instructions).
+    fn count_work(&mut self, marcher: &Marcher, before: (u64, u64)) {
+        self.evaluations += marcher.evaluations - before.0;
+        self.instructions += marcher.instructions - before.1;
+    }
+}
+
 impl std::ops::AddAssign for Stats {
     fn add_assign(&mut self, o: Stats) {
         self.samples += o.samples;
         self.evaluations += o.evaluations;
+        self.instructions += o.instructions;
         self.out_of_steps += o.out_of_steps;
         self.dropped += o.dropped;
         self.shadow_rays += o.shadow_rays;
@@ -344,9 +356,9 @@ fn trace(
                 interior: path.stack.len > 0 && interior.is_some(),
             });
         }
-        let before = marcher.evaluations;
+        let before = (marcher.evaluations, marcher.instructions);
         marcher.march(&fs.cells, rays, s.limits, hits);
-        stats.evaluations += marcher.evaluations - before;
+        stats.count_work(marcher, before);
 
         // Resolve everything but surface hits; collect those.
         pending.clear();
@@ -414,9 +426,9 @@ fn trace(
 
         // Shadow rays of the light samples taken above, all at once.
         if !shadows.pending.is_empty() {
-            let before = marcher.evaluations;
+            let before = (marcher.evaluations, marcher.instructions);
             marcher.march(&fs.cells, &shadows.rays, s.limits, &mut shadows.hits);
-            stats.evaluations += marcher.evaluations - before;
+            stats.count_work(marcher, before);
             stats.shadow_rays += shadows.rays.len() as u64;
             for (sh, hit) in shadows.pending.iter().zip(&shadows.hits) {
                 if let Hit::Surface { t, object } = *hit
@@ -460,7 +472,7 @@ fn normals_of(hits: &[Pending], grad: &mut Regs<Dual, LANES>, out: &mut Vec<DVec
     let mut g = Vec::with_capacity(hits.len());
     for run in hits.chunk_by(|a, b| std::ptr::eq(a.cell, b.cell)) {
         let cell = run[0].cell;
-        let tape = &cell.objects[run[0].object as usize];
+        let tape = &cell.objects()[run[0].object as usize];
         let points: Vec<[f32; 4]> = (run.iter())
             .map(|h| (h.p - cell.origin).as_vec4().to_array())
             .collect();

@@ -93,6 +93,9 @@ pub struct Marcher {
     /// Distance evaluations (tape lanes and exact evaluations in affine cells), for the
     /// statistics.
     pub evaluations: u64,
+    /// Instructions those evaluations ran (a tape's length per lane, an affine cell's
+    /// pieces): the work a step costs, which pruning shortens.
+    pub instructions: u64,
 }
 
 impl Default for Marcher {
@@ -104,6 +107,7 @@ impl Default for Marcher {
             next: vec![],
             queue: vec![],
             evaluations: 0,
+            instructions: 0,
         }
     }
 }
@@ -134,6 +138,7 @@ impl Marcher {
             st.omega = if r.interior { 1.0 } else { OMEGA };
         }
         let mut at: Vec<Option<&Cell>> = vec![None; rays.len()];
+        let mut paths = vec![cells.path(); rays.len()];
         self.active.clear();
         self.active.extend(0..rays.len() as u32);
         while !self.active.is_empty() {
@@ -144,10 +149,7 @@ impl Marcher {
                 let (r, st) = (&rays[k], &mut self.state[k]);
                 let p = r.o + r.d * st.t;
                 st.p = p;
-                let cell = match at[k] {
-                    Some(c) if c.contains(p) => c,
-                    _ => cells.find(p),
-                };
+                let cell = cells.locate(&mut paths[k], p);
                 at[k] = Some(cell);
                 if !cell.size.is_finite() && st.t >= st.escape_at {
                     if cells.escapes(p, r.d) {
@@ -160,14 +162,19 @@ impl Marcher {
                 let class = r.interior as usize;
                 let tol = epsilon_at(p - cell.origin, limits.epsilon);
                 st.tol = tol;
-                // Nothing in the cell: cross it.
+                // Nothing in the cell: cross it, or go as far as the bound allows (it holds
+                // at `p`, so a sphere step of that length is safe wherever it ends).
                 if cell.lower[class] > tol {
-                    let jump = past(st.exit(cells, cell, p, r.d), cell);
-                    finish(st, &mut self.next, k, r, Step::Advance(jump), limits, hits);
+                    let step = unrelax(st, cell.lower[class]).unwrap_or_else(|| {
+                        let exit = past(st.exit(cells, cell, p, r.d), cell);
+                        Step::Advance(exit.max(cell.lower[class]))
+                    });
+                    finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
                 }
                 if let (false, Some(pieces)) = (r.interior, &cell.linear) {
                     self.evaluations += 1;
+                    self.instructions += pieces.len() as u64;
                     let local = p - cell.origin;
                     let exit = st.exit(cells, cell, p, r.d);
                     // The nearest piece now, and the first one the ray meets.
@@ -182,7 +189,9 @@ impl Marcher {
                             first = (d / -rate, l.object);
                         }
                     }
-                    let step = if near.0 < tol {
+                    let step = if let Some(back) = unrelax(st, near.0) {
+                        back
+                    } else if near.0 < tol {
                         Step::Hit {
                             t: st.t,
                             object: near.1,
@@ -224,6 +233,7 @@ impl Marcher {
                     }
                     run(tape, &mut self.regs);
                     self.evaluations += chunk.len() as u64;
+                    self.instructions += (chunk.len() * tape.code.len()) as u64;
                     let (dist, near) = (tape.outputs[0], tape.outputs[1]);
                     for (lane, &(_, i)) in chunk.iter().enumerate() {
                         let d = self.regs.get(dist)[lane] as f64;
@@ -234,13 +244,8 @@ impl Marcher {
                             // NaN from a user's field ends the ray like a ray that ran out.
                             hits[k] = Hit::OutOfSteps;
                             continue;
-                        } else if st.omega > 1.0 && (d < 0.0 || d + st.radius < st.step) {
-                            // The spheres around this point and the previous one do not
-                            // overlap: the over-relaxed step may have skipped a surface. Go
-                            // back to the plain step and stop relaxing.
-                            let back = st.radius - st.step;
-                            (st.omega, st.radius, st.step) = (1.0, 0.0, 0.0);
-                            Step::Advance(back)
+                        } else if let Some(back) = unrelax(st, d) {
+                            back
                         } else if d < st.tol && near >= 0.0 {
                             Step::Hit {
                                 t: st.t,
@@ -267,6 +272,21 @@ impl Marcher {
             std::mem::swap(&mut self.active, &mut self.next);
         }
     }
+}
+
+/// The step back to where the last over-relaxed step would have ended as a plain one, if the
+/// spheres around this point (of radius `d`, the distance here or a lower bound of it) and
+/// the previous one do not overlap: the relaxed step may have skipped a surface. The ray
+/// stops relaxing then. Otherwise the pending step is verified and forgotten.
+fn unrelax(st: &mut State, d: f64) -> Option<Step> {
+    let pending = st.omega > 1.0 && st.step > 0.0;
+    let (radius, step) = (st.radius, st.step);
+    (st.radius, st.step) = (0.0, 0.0);
+    if pending && (d < 0.0 || d + radius < step) {
+        st.omega = 1.0;
+        return Some(Step::Advance(radius - step));
+    }
+    None
 }
 
 /// A step to `exit` and just past it, into the next cell.

@@ -3,7 +3,9 @@
 //! interior) tapes pruned to the cell (`ir::prune`), in coordinates local to the cell's
 //! centre, with interval lower bounds of their distances there and, where the distance is
 //! affine in the cell, its exact form. Inside a cell the pruned tapes compute what the whole
-//! scene tape does, so a ray step evaluates only the objects that can matter where it is.
+//! scene tape does wherever the distance is below the cell's `reach` (a fraction of its edge)
+//! and a lower bound of at least `reach` elsewhere, so a ray step evaluates only the objects
+//! near where it is.
 //! Points outside the cube use the whole scene in coordinates local to its centre.
 
 use super::Tape;
@@ -13,14 +15,24 @@ use crate::ir::prune::{Pruned, pieces, prune};
 use crate::ir::{Graph, Id, Node, Un, Var};
 use glam::DVec4;
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Deepest level of the tree: cells down to 1/64 of the cube's edge.
-const MAX_DEPTH: u32 = 6;
+/// Deepest level of the tree: cells down to 1/256 of the cube's edge.
+const MAX_DEPTH: u32 = 8;
 /// Levels split whether or not the split shortened the tapes: the first splits of a cube
 /// around a whole scene rarely separate its objects.
 const FREE_DEPTH: u32 = 2;
-/// A cell whose tapes have at most this many instructions is not split further.
-const SPLIT_LEN: usize = 16;
+/// A cell whose tapes have at most this many instructions is not split further: running
+/// them costs less than building the children.
+const SPLIT_LEN: usize = 48;
+/// A cell whose tapes are longer than this is split even when its parent's were no longer:
+/// the bounds pruning cuts objects by their distance, which takes smaller cells.
+const LONG_LEN: usize = 64;
+/// A cell's tapes are exact where the distance is below this fraction of its edge; beyond,
+/// objects farther than that are cut to their lower bound (`ir::prune`). Small cells next
+/// to a surface then hold only the objects nearest it, and most cells near a dense union
+/// hold none and are crossed in one jump.
+const REACH: f64 = 0.125;
 
 /// One affine piece of a cell's scene distance: `g . (p - origin) + c`, on `object`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -40,28 +52,43 @@ pub struct Cell {
     pub scene: Tape,
     /// Outputs: unsigned distance to the nearest surface and its object, for rays inside.
     pub interior: Option<Tape>,
-    /// Each object's distance, for the normals of hits in the cell.
-    pub objects: Vec<Tape>,
+    /// Each object's distance, for the normals of hits in the cell (compiled at the first).
+    objects: OnceLock<Vec<Tape>>,
+    /// The tapes are exact where the distance is below this; above it they give a lower
+    /// bound of it, itself at least this (`REACH`).
+    pub reach: f64,
     /// Lower bounds over the cell of the scene's distance and the interior's (NaN: unknown).
     pub lower: [f64; 2],
     /// The scene distance as the smallest of a few affine pieces, where it is one over the
     /// whole cell (halfspaces, walls seen from inside a box): rays meet it exactly.
     pub linear: Option<Vec<Linear>>,
-    /// The pruned graph, kept while the cell may still be split.
-    graph: Option<Pruned>,
+    /// The pruned graph, for the object tapes and the children.
+    graph: Pruned,
     depth: u32,
     /// Instructions in the tapes.
     len: usize,
-    children: OnceLock<Box<[Cell]>>,
+    /// The 16 children, each built when a ray first reaches it; none when the cell is not
+    /// split.
+    children: Box<[OnceLock<Cell>]>,
 }
 
 /// The tree of one frame's cells, and what lies outside its cube.
 pub struct Cells {
+    /// Nodes of the graphs pruning has read and built for the cells so far: the work the
+    /// lazy tree costs, for tests and measurements.
+    built: AtomicU64,
     root: Cell,
     /// Points outside the cube: the scene without the bounded objects, which all lie inside
     /// it. A step from such a point may go no further than to the cube.
     outside: Cell,
     escape: Escape,
+}
+
+/// The cells from the root down to one cell (`Cells::locate`).
+#[derive(Clone, Copy)]
+pub struct Path<'a> {
+    cells: [&'a Cell; MAX_DEPTH as usize + 1],
+    len: usize,
 }
 
 /// What proves that a ray has left the scene: the box `lo..hi` holds every bounded object,
@@ -154,6 +181,7 @@ impl Cells {
         let roots: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
         let (graph, map) = beyond.graph.rebuild(&roots, |g, n| g.intern(n));
         Cells {
+            built: AtomicU64::new(0),
             root,
             outside,
             escape: Escape {
@@ -171,10 +199,43 @@ impl Cells {
             return &self.outside;
         }
         let mut c = &self.root;
-        while let Some(kids) = c.children() {
-            c = &kids[c.child(p)];
+        while let Some(kid) = c.child(p, &self.built) {
+            c = kid;
         }
         c
+    }
+
+    /// A path that leads nowhere yet, for `locate`.
+    pub fn path(&self) -> Path<'_> {
+        Path {
+            cells: [&self.root; MAX_DEPTH as usize + 1],
+            len: 0,
+        }
+    }
+
+    /// The deepest cell holding `p`, as `find`, climbing from the end of `path` (the cells
+    /// down to where the ray last was) only as far as it must, and leaving the new path there.
+    pub fn locate<'a>(&'a self, path: &mut Path<'a>, p: DVec4) -> &'a Cell {
+        while path.len > 0 && !path.cells[path.len - 1].contains(p) {
+            path.len -= 1;
+        }
+        if path.len == 0 {
+            if !self.root.contains(p) {
+                return &self.outside;
+            }
+            (path.cells[0], path.len) = (&self.root, 1);
+        }
+        let mut c = path.cells[path.len - 1];
+        while let Some(kid) = c.child(p, &self.built) {
+            (path.cells[path.len], path.len) = (kid, path.len + 1);
+            c = kid;
+        }
+        c
+    }
+
+    /// The nodes pruning has read and built for the cells so far (not the root's).
+    pub fn built(&self) -> u64 {
+        self.built.load(Ordering::Relaxed)
     }
 
     /// Whether `cell` is the region outside the cube.
@@ -255,13 +316,15 @@ impl Cell {
             }
         });
         let shift = (origin - parent_origin).to_array();
-        let pr = prune(&parent.graph, &parent.roots, region, shift);
+        let reach = if size.is_finite() {
+            REACH * size
+        } else {
+            f64::INFINITY
+        };
+        let pr = prune(&parent.graph, &parent.roots, region, shift, reach);
         let scene = Tape::compile("scene", &pr.graph, &pr.roots[..2]);
         let interior = interior.then(|| Tape::compile("interior", &pr.graph, &pr.roots[2..4]));
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
-        let objects = (pr.roots[4..].iter())
-            .map(|r| Tape::compile("object", &pr.graph, &[*r]))
-            .collect();
         let linear = pieces(&pr.graph, pr.roots[0], pr.roots[1]).map(|ps| {
             (ps.iter())
                 .map(|p| Linear {
@@ -279,7 +342,7 @@ impl Cell {
         let empty = lower[0].min(lower[1]) > 0.0;
         let split = depth < MAX_DEPTH
             && len > SPLIT_LEN
-            && (len < parent_len || depth < FREE_DEPTH)
+            && (len < parent_len || depth < FREE_DEPTH || len > LONG_LEN)
             && !empty
             && linear.is_none();
         Cell {
@@ -288,14 +351,27 @@ impl Cell {
             origin,
             scene,
             interior,
-            objects,
+            objects: OnceLock::new(),
+            reach,
             lower,
             linear,
-            graph: split.then_some(pr),
+            graph: pr,
             depth,
             len,
-            children: OnceLock::new(),
+            children: (0..if split { 16 } else { 0 })
+                .map(|_| OnceLock::new())
+                .collect(),
         }
+    }
+
+    /// Each object's distance in the cell, local to its origin.
+    pub fn objects(&self) -> &[Tape] {
+        self.objects.get_or_init(|| {
+            let pr = &self.graph;
+            (pr.roots[4..].iter())
+                .map(|r| Tape::compile("object", &pr.graph, &[*r]))
+                .collect()
+        })
     }
 
     /// Which cell this is, the same in every run (its depth and corner), for ordering work
@@ -320,35 +396,33 @@ impl Cell {
             .max(0.0)
     }
 
-    fn child(&self, p: DVec4) -> usize {
-        let mid = self.lo + DVec4::splat(self.size / 2.0);
-        (0..4).map(|a| ((p[a] >= mid[a]) as usize) << a).sum()
-    }
-
-    fn children(&self) -> Option<&[Cell]> {
-        let graph = self.graph.as_ref()?;
-        Some(self.children.get_or_init(|| {
-            let half = self.size / 2.0;
-            (0..16)
-                .map(|k| {
-                    let lo = self.lo
-                        + DVec4::from_array(std::array::from_fn(|a| ((k >> a) & 1) as f64 * half));
-                    let place = Place {
-                        lo,
-                        size: half,
-                        origin: lo + DVec4::splat(half / 2.0),
-                    };
-                    let interior = self.interior.is_some();
-                    Cell::new(
-                        graph,
-                        self.origin,
-                        place,
-                        self.depth + 1,
-                        self.len,
-                        interior,
-                    )
-                })
-                .collect()
+    /// The child holding `p` (a point of this cell), built on first use; `None` if the cell
+    /// is not split.
+    fn child(&self, p: DVec4, built: &AtomicU64) -> Option<&Cell> {
+        let half = self.size / 2.0;
+        let mid = self.lo + DVec4::splat(half);
+        let k: usize = (0..4).map(|a| ((p[a] >= mid[a]) as usize) << a).sum();
+        let kid = self.children.get(k)?;
+        Some(kid.get_or_init(|| {
+            let lo =
+                self.lo + DVec4::from_array(std::array::from_fn(|a| ((k >> a) & 1) as f64 * half));
+            let place = Place {
+                lo,
+                size: half,
+                origin: lo + DVec4::splat(half / 2.0),
+            };
+            let interior = self.interior.is_some();
+            let kid = Cell::new(
+                &self.graph,
+                self.origin,
+                place,
+                self.depth + 1,
+                self.len,
+                interior,
+            );
+            let work = self.graph.graph.len() + kid.graph.graph.len();
+            built.fetch_add(work as u64, Ordering::Relaxed);
+            kid
         }))
     }
 }
