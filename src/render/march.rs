@@ -5,8 +5,11 @@
 //! affine (a halfspace alone) is intersected exactly; in every other cell the ray is grouped
 //! with the rays in the same cell and their cell's pruned tape runs `LANES` rays at a time.
 //! Steps are over-relaxed (Keinert et al. 2014, "Enhanced Sphere Tracing"): a step of
-//! `OMEGA * d`, taken back to the plain step `d` as soon as the unbounding spheres of two
-//! consecutive points fail to overlap. A ray sees the sky only when it provably leaves every
+//! `omega * d`, taken back to the plain step `d` whenever the unbounding spheres of two
+//! consecutive points fail to overlap. `omega` follows the distance's slope along the ray
+//! (Bán and Valasek 2023, "Automatic Step Size Relaxation in Sphere Tracing"): rays leaving
+//! a surface, where the distance grows, take long steps, and rays closing in on one plain
+//! ones. A ray sees the sky only when it provably leaves every
 //! object (`Cells::escapes`), never by travelling far.
 
 use crate::vm::cells::{Cell, Cells};
@@ -40,8 +43,12 @@ pub struct Limits {
     pub max_steps: u32,
 }
 
-/// The over-relaxation factor of a step.
+/// The over-relaxation factor of a ray's first step.
 const OMEGA: f64 = 1.6;
+/// The most a step is over-relaxed, and the share of the step at which the spheres of two
+/// points would just touch were the distance's slope to stay as it was.
+const OMEGA_MAX: f64 = 32.0;
+const SAFETY: f64 = 0.95;
 
 /// The distance below which a point counts as on a surface. f32 cannot resolve distances
 /// below a few ulps of the coordinates, so far from the origin the epsilon grows with them.
@@ -59,6 +66,8 @@ struct State {
     radius: f64,
     step: f64,
     omega: f64,
+    /// Whether the ray may over-relax its steps at all.
+    relax: bool,
     /// The next `t` at which to try to prove that the ray has left the scene.
     escape_at: f64,
     /// Where the ray enters the cells' cube from outside (`Cells::enter`).
@@ -66,6 +75,8 @@ struct State {
     /// The point at `t`, and the distance below which it is on a surface.
     p: DVec4,
     tol: f64,
+    /// How far from `p` its cell's distances hold (`Cells::gap`).
+    holds: f64,
 }
 
 impl State {
@@ -135,7 +146,8 @@ impl Marcher {
             // An unsigned distance does not change sign where a relaxed step crosses a
             // surface, and the spheres of the two points still touch there: rays inside
             // objects take plain steps.
-            st.omega = if r.interior { 1.0 } else { OMEGA };
+            st.relax = !r.interior;
+            st.omega = if st.relax { OMEGA } else { 1.0 };
         }
         let mut at: Vec<Option<&Cell>> = vec![None; rays.len()];
         let mut paths = vec![cells.path(); rays.len()];
@@ -152,7 +164,11 @@ impl Marcher {
                 let cell = cells.locate(&mut paths[k], p);
                 at[k] = Some(cell);
                 if !cell.size.is_finite() && st.t >= st.escape_at {
-                    if cells.escapes(p, r.d) {
+                    // The ray is known to be clear only up to where the last step would have
+                    // ended as a plain one (a relaxed step is checked at the next point): the
+                    // proof starts there.
+                    let clear = p - r.d * (st.step - st.radius).max(0.0);
+                    if cells.escapes(clear, r.d) {
                         hits[k] = Hit::Beyond;
                         continue;
                     }
@@ -160,12 +176,20 @@ impl Marcher {
                     st.escape_at = 2.0 * st.t + 1.0;
                 }
                 let class = r.interior as usize;
+                // Outside the cube, distances hold only as far as the cube: so far reach
+                // the spheres that check a relaxed step.
+                let holds = if cells.is_outside(cell) {
+                    cells.gap(p)
+                } else {
+                    f64::INFINITY
+                };
+                st.holds = holds;
                 let tol = epsilon_at(p - cell.origin, limits.epsilon);
                 st.tol = tol;
                 // Nothing in the cell: cross it, or go as far as the bound allows (it holds
                 // at `p`, so a sphere step of that length is safe wherever it ends).
                 if cell.lower[class] > tol {
-                    let step = unrelax(st, cell.lower[class]).unwrap_or_else(|| {
+                    let step = unrelax(st, cell.lower[class].min(holds)).unwrap_or_else(|| {
                         let exit = past(st.exit(cells, cell, p, r.d), cell);
                         Step::Advance(exit.max(cell.lower[class]))
                     });
@@ -189,7 +213,7 @@ impl Marcher {
                             first = (d / -rate, l.object);
                         }
                     }
-                    let step = if let Some(back) = unrelax(st, near.0) {
+                    let step = if let Some(back) = unrelax(st, near.0.min(holds)) {
                         back
                     } else if near.0 < tol {
                         Step::Hit {
@@ -244,7 +268,7 @@ impl Marcher {
                             // NaN from a user's field ends the ray like a ray that ran out.
                             hits[k] = Hit::OutOfSteps;
                             continue;
-                        } else if let Some(back) = unrelax(st, d) {
+                        } else if let Some(back) = unrelax(st, d.min(st.holds)) {
                             back
                         } else if d < st.tol && near >= 0.0 {
                             Step::Hit {
@@ -252,7 +276,12 @@ impl Marcher {
                                 object: near as usize,
                             }
                         } else {
+                            // A relaxed step is only verified at the next point, so none
+                            // may end the segment: the last step to `tmax` is a plain one.
                             let mut step = st.omega * d;
+                            if st.t + step >= r.tmax {
+                                step = d;
+                            }
                             (st.radius, st.step) = (d, step);
                             // Outside the cube the tape leaves out the objects inside it.
                             if cells.is_outside(cell) {
@@ -276,16 +305,22 @@ impl Marcher {
 
 /// The step back to where the last over-relaxed step would have ended as a plain one, if the
 /// spheres around this point (of radius `d`, the distance here or a lower bound of it) and
-/// the previous one do not overlap: the relaxed step may have skipped a surface. The ray
-/// stops relaxing then. Otherwise the pending step is verified and forgotten.
+/// the previous one do not overlap: the relaxed step may have skipped a surface. The next
+/// step is then a plain one. Otherwise the pending step is verified and forgotten, and the
+/// distance's slope between the two points sets the next relaxation: were it to change
+/// linearly at rate `m`, the spheres would touch at a step of `2 / (1 - m)` times it.
 fn unrelax(st: &mut State, d: f64) -> Option<Step> {
-    let pending = st.omega > 1.0 && st.step > 0.0;
     let (radius, step) = (st.radius, st.step);
     (st.radius, st.step) = (0.0, 0.0);
-    if pending && (d < 0.0 || d + radius < step) {
+    if !st.relax || step <= 0.0 {
+        return None;
+    }
+    if d < 0.0 || d + radius < step {
         st.omega = 1.0;
         return Some(Step::Advance(radius - step));
     }
+    let m = ((d - radius) / step).clamp(-1.0, 1.0);
+    st.omega = (SAFETY * 2.0 / (1.0 - m)).clamp(1.0, OMEGA_MAX);
     None
 }
 

@@ -243,6 +243,13 @@ impl Cells {
         std::ptr::eq(cell, &self.outside)
     }
 
+    /// How far `p` is from the cube (0 inside): outside it, the distance the outside cell
+    /// gives holds only this far, since it leaves out the objects inside the cube.
+    pub fn gap(&self, p: DVec4) -> f64 {
+        let hi = self.root.lo + DVec4::splat(self.root.size);
+        (self.root.lo - p).max(p - hi).max(DVec4::ZERO).length()
+    }
+
     /// Where the ray from `o` along `d`, starting outside the cube, enters it (infinity when
     /// it starts inside or never gets there: once out, it stays out).
     pub fn enter(&self, o: DVec4, d: DVec4) -> f64 {
