@@ -6,12 +6,11 @@
 //! into the operations in `f64`, so an `f32` tape of the result keeps its precision however
 //! far the box is from the world's origin.
 //!
-//! Beyond exact pruning, a box of diagonal `reach` may drop what is far from it (the Lipschitz
+//! Beyond exact pruning, a box may drop what is farther from it than `reach` (the Lipschitz
 //! pruning of Barbier et al., Eurographics 2025): a distance that every root reads only
 //! through nondecreasing operations and that is at least `reach` everywhere in the box is
 //! replaced by that bound. The result is then a lower bound of the distance, 1-Lipschitz, and
-//! exact wherever it is below `reach`: a ray step no longer than the box's diagonal is all the
-//! cut could have changed.
+//! exact wherever it is below `reach`, which is all sphere tracing needs.
 
 use super::interval::{I, Intervals, min_id_choice};
 use super::opt::simplify;

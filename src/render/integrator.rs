@@ -358,7 +358,6 @@ fn trace(
         }
         let before = (marcher.evaluations, marcher.instructions);
         marcher.march(&fs.cells, rays, s.limits, hits);
-
         stats.count_work(marcher, before);
 
         // Resolve everything but surface hits; collect those.

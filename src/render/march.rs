@@ -9,8 +9,8 @@
 //! consecutive points fail to overlap. `omega` follows the distance's slope along the ray
 //! (Bán and Valasek 2023, "Automatic Step Size Relaxation in Sphere Tracing"): rays leaving
 //! a surface, where the distance grows, take long steps, and rays closing in on one plain
-//! ones. A ray sees the sky only when it provably leaves every
-//! object (`Cells::escapes`), never by travelling far.
+//! ones. A ray sees the sky only when it provably leaves every object (`Cells::escapes`),
+//! never by travelling far.
 
 use crate::vm::cells::{Cell, Cells};
 use crate::vm::{LANES, Regs, run};
@@ -178,18 +178,17 @@ impl Marcher {
                 let class = r.interior as usize;
                 // Outside the cube, distances hold only as far as the cube: so far reach
                 // the spheres that check a relaxed step.
-                let holds = if cells.is_outside(cell) {
+                st.holds = if cells.is_outside(cell) {
                     cells.gap(p)
                 } else {
                     f64::INFINITY
                 };
-                st.holds = holds;
                 let tol = epsilon_at(p - cell.origin, limits.epsilon);
                 st.tol = tol;
                 // Nothing in the cell: cross it, or go as far as the bound allows (it holds
                 // at `p`, so a sphere step of that length is safe wherever it ends).
                 if cell.lower[class] > tol {
-                    let step = unrelax(st, cell.lower[class].min(holds)).unwrap_or_else(|| {
+                    let step = unrelax(st, cell.lower[class].min(st.holds)).unwrap_or_else(|| {
                         let exit = past(st.exit(cells, cell, p, r.d), cell);
                         Step::Advance(exit.max(cell.lower[class]))
                     });
@@ -213,7 +212,7 @@ impl Marcher {
                             first = (d / -rate, l.object);
                         }
                     }
-                    let step = if let Some(back) = unrelax(st, near.0.min(holds)) {
+                    let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
                     } else if near.0 < tol {
                         Step::Hit {

@@ -195,14 +195,7 @@ impl Cells {
 
     /// The deepest cell holding `p`.
     pub fn find(&self, p: DVec4) -> &Cell {
-        if !self.root.contains(p) {
-            return &self.outside;
-        }
-        let mut c = &self.root;
-        while let Some(kid) = c.child(p, &self.built) {
-            c = kid;
-        }
-        c
+        self.locate(&mut self.path(), p)
     }
 
     /// A path that leads nowhere yet, for `locate`.
@@ -213,8 +206,8 @@ impl Cells {
         }
     }
 
-    /// The deepest cell holding `p`, as `find`, climbing from the end of `path` (the cells
-    /// down to where the ray last was) only as far as it must, and leaving the new path there.
+    /// The deepest cell holding `p`, climbing from the end of `path` (the cells down to where
+    /// the ray last was) only as far as it must, and leaving the new path there.
     pub fn locate<'a>(&'a self, path: &mut Path<'a>, p: DVec4) -> &'a Cell {
         while path.len > 0 && !path.cells[path.len - 1].contains(p) {
             path.len -= 1;
