@@ -608,10 +608,11 @@ fn pruned_cells_agree_with_the_whole_tape() {
                 let whole = vm::eval_point(&fs.scene, &mut one, to32(p.to_array()), [0.0; 4], 0.0);
                 let local = (p - cell.origin).as_vec4().to_array();
                 let mut part = vm::eval_point(&cell.scene, &mut one, local, [0.0; 4], 0.0);
-                if let Some(pieces) = &cell.linear {
+                if let Some(pieces) = &cell.exact {
+                    let at = (p - cell.origin).to_array();
                     let (d, o) = (pieces.iter())
-                        .map(|l| (l.g.dot(p - cell.origin) + l.c, l.object))
-                        .fold((f64::INFINITY, 0), |a, b| if b.0 < a.0 { b } else { a });
+                        .map(|l| (l.form.value(at), l.object))
+                        .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
                     part = vec![d as f32, o as f32];
                 }
                 let (a, b) = (whole[0] as f64, part[0] as f64);
@@ -669,4 +670,115 @@ fn pruned_cells_agree_with_the_whole_tape() {
         cuts * 50 > checked,
         "only {cuts} of {checked} points where a cell cut"
     );
+}
+
+/// The exact pieces of cells (`ir::exact`): a ray meets a plane or a ball (a sphere of any
+/// linear image of the point, or its complement) at the first `t` where the distance reaches
+/// zero, and nowhere before it; when it meets none, the distance stays positive.
+#[test]
+fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
+    use hyperslice::ir::exact::Form;
+    let mut rng = Pcg64Mcg::seed_from_u64(21);
+    let (mut met, mut missed) = (0, 0);
+    for i in 0..8000 {
+        let form = if i % 4 == 0 {
+            Form::Plane {
+                g: random_unit(&mut rng),
+                c: rng.random_range(-2.0..2.0),
+            }
+        } else {
+            Form::Ball {
+                rows: std::array::from_fn(|_| random_point(&mut rng, 1.5)),
+                b: random_point(&mut rng, 2.0),
+                r: rng.random_range(0.1..2.0),
+                sign: if i % 3 == 0 { -1.0 } else { 1.0 },
+            }
+        };
+        let (p, d) = (random_point(&mut rng, 4.0), random_unit(&mut rng));
+        let at = |t: f64| form.value(std::array::from_fn(|a| p[a] + t * d[a]));
+        if at(0.0) <= 1e-6 {
+            continue;
+        }
+        let end = form.first(p, d);
+        let until = end.unwrap_or(50.0);
+        for k in 0..200 {
+            let t = until * k as f64 / 200.0;
+            assert!(
+                at(t) > -1e-9,
+                "{form:?} from {p:?} along {d:?}: {} at {t}, first {end:?}",
+                at(t)
+            );
+        }
+        if let Some(t) = end {
+            let scale = 1.0 + t + p.iter().map(|x| x.abs()).sum::<f64>();
+            assert!(
+                at(t).abs() < 1e-9 * scale * 16.0,
+                "{form:?}: {} at its first {t}",
+                at(t)
+            );
+            met += 1;
+        } else {
+            missed += 1;
+        }
+    }
+    assert!(met > 300 && missed > 300, "{met} met, {missed} missed");
+}
+
+/// Far from the origin, on surfaces of radius 1e5, a cell's `f32` tapes of the plain forms
+/// lose the distance to the rounding of the large constants; the forms `ir::precise` writes
+/// keep it to a small share of the epsilon, checked against the `f64` reference at random
+/// points of a cell on each surface.
+#[test]
+fn precise_forms_keep_surfaces_of_radius_1e5_to_the_epsilon() {
+    use hyperslice::ir::precise::precise;
+    use hyperslice::ir::prune::prune;
+    let far = [3e5, 0.0, 0.0, 2e5];
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    for shape in [
+        "hypersphere(100000) |> translate([0, -100000, 0, 0]) |> rotate(xy, 30deg)",
+        "hyperbox([100000, 100000, 100000, 100000]) |> translate([3, -100000, 7, 1]) |> rotate(xz, 20deg) |> rotate(yw, 10deg)",
+        "hypersphere(100000) |> onion(0.5) |> translate([0, -100000, 0, 0])",
+    ] {
+        let src = format!(
+            "object s {{ shape = {shape} |> translate([{}, {}, {}, {}]) }}",
+            far[0], far[1], far[2], far[3]
+        );
+        let raw = ir::lower(&compile_text(&src));
+        let root = raw.objects[0].distance;
+        let (edge, epsilon) = (64.0, 1e-4);
+        let region = [I::new(-edge / 2.0, edge / 2.0); 4];
+        let cell = prune(&raw.graph, &[root], region, far, f64::INFINITY);
+        let plain = Tape::compile("plain", &cell.graph, &cell.roots);
+        let (g, roots) =
+            precise(&cell.graph, &cell.roots, region, epsilon).expect("large constants rewritten");
+        let exact = Tape::compile("precise", &g, &roots);
+        let mut reference = Reference::new(&raw.graph, &[root]);
+        let mut one = Regs::<f32, 1>::new(&plain);
+        let (mut worst_plain, mut worst): (f64, f64) = (0.0, 0.0);
+        for _ in 0..2000 {
+            let local = random_point(&mut rng, edge / 2.0);
+            reference.run(&vars(
+                std::array::from_fn(|a| far[a] + local[a]),
+                [0.0; 4],
+                0.0,
+            ));
+            let want = reference.value(root);
+            let at = to32(local);
+            let a = vm::eval_point(&plain, &mut one, at, [0.0; 4], 0.0)[0] as f64;
+            let b = vm::eval_point(&exact, &mut one, at, [0.0; 4], 0.0)[0] as f64;
+            // Points rounded to f32 in the cell: their own rounding is the floor.
+            let own = (0..4).map(|k| (at[k] as f64 - local[k]).abs()).sum::<f64>();
+            worst_plain = worst_plain.max((a - want).abs() - own);
+            worst = worst.max((b - want).abs() - own);
+        }
+        eprintln!("{shape}: plain tape off by {worst_plain:e}, precise by {worst:e}");
+        assert!(
+            worst < epsilon / 8.0,
+            "{shape}: precise off by {worst}\n{exact}"
+        );
+        assert!(
+            worst_plain > epsilon,
+            "{shape}: plain only off by {worst_plain}"
+        );
+    }
 }

@@ -5,9 +5,11 @@
 //! once (the D4 decoder, lattice repetition, min-with-id) are tuple nodes read through `Proj`.
 
 pub mod eval;
+pub mod exact;
 pub mod interval;
 pub mod lower;
 pub mod opt;
+pub mod precise;
 mod print;
 pub mod prune;
 

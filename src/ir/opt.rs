@@ -38,6 +38,16 @@ pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
             match op {
                 Bin::Add if ca == Some(0.0) => return b,
                 Bin::Add | Bin::Sub if cb == Some(0.0) => return a,
+                // `(x + a) + b = x + (a + b)`: pruning moves a point to each cell's origin in
+                // turn, and the offsets must not pile up (in f32, nor in instructions).
+                Bin::Add | Bin::Sub
+                    if let (Some(kb), Node::Bin(Bin::Add, x, y)) = (cb, g.get(a))
+                        && let Some(ky) = c(y) =>
+                {
+                    let s = if op == Bin::Add { ky + kb } else { ky - kb };
+                    let s = k(g, s);
+                    return simplify(g, Node::Bin(Bin::Add, x, s), t);
+                }
                 // A constant subtracted from a fused distance joins it.
                 Bin::Sub
                     if cb.is_some() && matches!(g.get(a), Node::Length(..) | Node::BoxDist(..)) =>

@@ -60,7 +60,12 @@ impl FrameScene {
             .filter_map(|l| sphere_light(l, &objects[l.object], t))
             .collect();
         let camera = FrameCamera::new(&scene.camera, t, &frame.look);
-        let cells = cells(&program.ir, &compiled.bounds, camera.position);
+        let cells = cells(
+            &program.ir,
+            &compiled.bounds,
+            camera.position,
+            scene.render.epsilon,
+        );
         FrameScene {
             t,
             camera,
@@ -78,7 +83,7 @@ impl FrameScene {
 
 /// The cells of a frame: a cube around the camera and every bounded object, twice their
 /// extent, so rays near them and on the ground between them use pruned tapes.
-fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4) -> Cells {
+fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4, epsilon: f64) -> Cells {
     let (mut lo, mut hi) = (camera, camera);
     let mut unbounded = vec![];
     for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
@@ -101,7 +106,8 @@ fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4) -> Cel
     };
     let size = 2.0 * (hi - lo).max_element().max(1.0);
     let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
-    Cells::new(&ir.graph, roots, corner, size, (lo, hi), &unbounded)
+    let cube = (corner, size);
+    Cells::new(&ir.graph, roots, cube, (lo, hi), &unbounded, epsilon)
 }
 
 impl Features {

@@ -26,7 +26,7 @@
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
 use super::frame::FrameScene;
 use super::lights::Lights;
-use super::march::{Hit, Limits, Marcher, Ray, epsilon_at};
+use super::march::{Hit, Limits, Marcher, Ray};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
@@ -491,7 +491,7 @@ fn normals_of(hits: &[Pending], grad: &mut Regs<Dual, LANES>, out: &mut Vec<DVec
 }
 
 /// Offset from a surface point along `side` (a unit normal), past the marching epsilon at the
-/// point (`eps`, see [`epsilon_at`]), so the next segment does not hit the same surface at once.
+/// point (`eps`, see `Cell::epsilon`), so the next segment does not hit the same surface at once.
 fn leave(p: DVec4, side: DVec4, eps: f64) -> DVec4 {
     p + side * (4.0 * eps)
 }
@@ -636,9 +636,9 @@ fn shade(
     shadows: &mut Shadows,
     pixel: &mut PixelSums,
 ) -> bool {
-    // The hit's precision is that of its cell's local coordinates, where its distance was
-    // evaluated, not of its distance from the origin.
-    let eps = epsilon_at(h.p - h.cell.origin, s.limits.epsilon);
+    // The hit's precision is that of its cell, where its distance was evaluated, not of
+    // its distance from the origin.
+    let eps = h.cell.epsilon(h.p, s.limits.epsilon);
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
     if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {

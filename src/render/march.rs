@@ -2,7 +2,8 @@
 //!
 //! Each step, every ray still marching finds the cell it is in. A cell whose distance is
 //! bounded away from zero is crossed in one jump to its far side; a cell where the distance is
-//! affine (a halfspace alone) is intersected exactly; in every other cell the ray is grouped
+//! a few planes and spheres (a halfspace, a hypersphere alone) is intersected exactly, in
+//! `f64`, so rays grazing them do not crawl; in every other cell the ray is grouped
 //! with the rays in the same cell and their cell's pruned tape runs `LANES` rays at a time.
 //! Steps are over-relaxed (Keinert et al. 2014, "Enhanced Sphere Tracing"): a step of
 //! `omega * d`, taken back to the plain step `d` whenever the unbounding spheres of two
@@ -49,12 +50,6 @@ const OMEGA: f64 = 1.6;
 /// points would just touch were the distance's slope to stay as it was.
 const OMEGA_MAX: f64 = 32.0;
 const SAFETY: f64 = 0.95;
-
-/// The distance below which a point counts as on a surface. f32 cannot resolve distances
-/// below a few ulps of the coordinates, so far from the origin the epsilon grows with them.
-pub fn epsilon_at(p: DVec4, epsilon: f64) -> f64 {
-    epsilon.max(p.abs().max_element() * (1.0 / (1u64 << 21) as f64))
-}
 
 /// Where one ray is in its march.
 #[derive(Clone, Copy, Debug, Default)]
@@ -183,7 +178,7 @@ impl Marcher {
                 } else {
                     f64::INFINITY
                 };
-                let tol = epsilon_at(p - cell.origin, limits.epsilon);
+                let tol = cell.epsilon(p, limits.epsilon);
                 st.tol = tol;
                 // Nothing in the cell: cross it, or go as far as the bound allows (it holds
                 // at `p`, so a sphere step of that length is safe wherever it ends).
@@ -195,34 +190,35 @@ impl Marcher {
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
                 }
-                if let (false, Some(pieces)) = (r.interior, &cell.linear) {
+                if let (false, Some(pieces)) = (r.interior, &cell.exact) {
                     self.evaluations += 1;
                     self.instructions += pieces.len() as u64;
-                    let local = p - cell.origin;
+                    let (local, d) = ((p - cell.origin).to_array(), r.d.to_array());
                     let exit = st.exit(cells, cell, p, r.d);
                     // The nearest piece now, and the first one the ray meets.
-                    let (mut near, mut first) = ((f64::INFINITY, 0), (f64::INFINITY, 0));
-                    for l in pieces {
-                        let d = l.g.dot(local) + l.c;
-                        let rate = l.g.dot(r.d);
-                        if d < near.0 {
-                            near = (d, l.object);
+                    let (mut near, mut first) = ((f64::INFINITY, 0.0), (f64::INFINITY, 0.0));
+                    for piece in pieces {
+                        let at = piece.form.value(local);
+                        if at < near.0 {
+                            near = (at, piece.object);
                         }
-                        if rate < 0.0 && d / -rate < first.0 {
-                            first = (d / -rate, l.object);
+                        match piece.form.first(local, d) {
+                            Some(t) if t < first.0 => first = (t, piece.object),
+                            _ => {}
                         }
                     }
+                    let object = |o: f64| o.max(0.0) as usize;
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
                     } else if near.0 < tol {
                         Step::Hit {
                             t: st.t,
-                            object: near.1,
+                            object: object(near.1),
                         }
                     } else if first.0 <= exit {
                         Step::Hit {
                             t: st.t + first.0,
-                            object: first.1,
+                            object: object(first.1),
                         }
                     } else {
                         Step::Advance(past(exit, cell))

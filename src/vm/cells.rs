@@ -1,24 +1,37 @@
 //! The scene's tapes specialised to regions of space: a 16-way tree over a 4D cube around the
 //! region rays visit, built lazily as rays reach its cells. Each cell carries the scene (and
 //! interior) tapes pruned to the cell (`ir::prune`), in coordinates local to the cell's
-//! centre, with interval lower bounds of their distances there and, where the distance is
-//! affine in the cell, its exact form. Inside a cell the pruned tapes compute what the whole
-//! scene tape does wherever the distance is below the cell's `reach` (a fraction of its edge)
-//! and a lower bound of at least `reach` elsewhere, so a ray step evaluates only the objects
-//! near where it is.
+//! centre, with interval lower bounds of their distances there and, where the distance is a
+//! few planes and spheres in the cell, its exact form (`ir::exact`). Inside a cell the pruned
+//! tapes compute what the whole scene tape does wherever the distance is below the cell's
+//! `reach` (a fraction of its edge) and a lower bound of at least `reach` elsewhere, so a ray
+//! step evaluates only the objects near where it is.
+//!
+//! Precision: cells that hold a surface split until `f32` resolves the marching epsilon in
+//! their local coordinates (`PRECISE_EDGE`), and their tapes are compiled from forms without
+//! the cancellation of large constants (`ir::precise`), so a hypersphere of radius 1e5 or a
+//! scene far from the origin is met to the epsilon, not to the rounding of its size.
 //! Points outside the cube use the whole scene in coordinates local to its centre.
 
 use super::Tape;
+use crate::ir::exact::{Piece, pieces};
 use crate::ir::interval::{I, Intervals};
 use crate::ir::lower::nearest;
-use crate::ir::prune::{Pruned, pieces, prune};
+use crate::ir::precise::precise;
+use crate::ir::prune::{Pruned, prune};
 use crate::ir::{Graph, Id, Node, Un, Var};
 use glam::DVec4;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Deepest level of the tree: cells down to 1/256 of the cube's edge.
+/// Deepest level to which cells split to shorten their tapes: 1/256 of the cube's edge.
 const MAX_DEPTH: u32 = 8;
+/// Deepest level to which cells holding a surface split to resolve the marching epsilon in
+/// `f32` (`PRECISE_EDGE`), in scenes much larger than it.
+const PRECISE_DEPTH: u32 = 24;
+/// A cell resolves the epsilon when its edge is at most this many epsilons: `f32` then
+/// rounds its local coordinates by about a sixteenth of it.
+const PRECISE_EDGE: f64 = (1u64 << 20) as f64;
 /// Levels split whether or not the split shortened the tapes: the first splits of a cube
 /// around a whole scene rarely separate its objects.
 const FREE_DEPTH: u32 = 2;
@@ -33,14 +46,6 @@ const LONG_LEN: usize = 64;
 /// to a surface then hold only the objects nearest it, and most cells near a dense union
 /// hold none and are crossed in one jump.
 const REACH: f64 = 0.125;
-
-/// One affine piece of a cell's scene distance: `g . (p - origin) + c`, on `object`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Linear {
-    pub g: DVec4,
-    pub c: f64,
-    pub object: usize,
-}
 
 pub struct Cell {
     /// The corner with the smallest coordinates, and the edge length.
@@ -59,11 +64,13 @@ pub struct Cell {
     pub reach: f64,
     /// Lower bounds over the cell of the scene's distance and the interior's (NaN: unknown).
     pub lower: [f64; 2],
-    /// The scene distance as the smallest of a few affine pieces, where it is one over the
-    /// whole cell (halfspaces, walls seen from inside a box): rays meet it exactly.
-    pub linear: Option<Vec<Linear>>,
+    /// The scene distance as the smallest of a few planes and spheres in local coordinates,
+    /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a
+    /// hypersphere alone): rays meet it exactly.
+    pub exact: Option<Vec<Piece>>,
     /// The pruned graph, for the object tapes and the children.
     graph: Pruned,
+    needs: Needs,
     depth: u32,
     /// Instructions in the tapes.
     len: usize,
@@ -84,10 +91,17 @@ pub struct Cells {
     escape: Escape,
 }
 
+/// The distance below which a point counts as on a surface, at `p` in a tape's local
+/// coordinates: `f32` cannot resolve distances below a few ulps of the coordinates, so far
+/// from the tape's origin the epsilon grows with them.
+fn epsilon_at(p: DVec4, epsilon: f64) -> f64 {
+    epsilon.max(p.abs().max_element() * (1.0 / (1u64 << 21) as f64))
+}
+
 /// The cells from the root down to one cell (`Cells::locate`).
 #[derive(Clone, Copy)]
 pub struct Path<'a> {
-    cells: [&'a Cell; MAX_DEPTH as usize + 1],
+    cells: [&'a Cell; PRECISE_DEPTH as usize + 1],
     len: usize,
 }
 
@@ -121,6 +135,14 @@ impl Roots {
     }
 }
 
+/// What every cell's tapes must provide: the interior tape (when some object can be
+/// entered), and distances that resolve the marching epsilon.
+#[derive(Clone, Copy, Debug)]
+struct Needs {
+    interior: bool,
+    epsilon: f64,
+}
+
 /// Where a cell is: its corner with the smallest coordinates, its edge, and the point its
 /// tapes' local coordinates are zero at.
 #[derive(Clone, Copy, Debug)]
@@ -130,21 +152,51 @@ struct Place {
     origin: DVec4,
 }
 
+impl Place {
+    /// The cell in its own local coordinates (everything, outside the cube).
+    fn region(&self) -> [I; 4] {
+        std::array::from_fn(|a| {
+            if self.size.is_finite() {
+                let lo = self.lo[a] - self.origin[a];
+                I::new(lo, lo + self.size)
+            } else {
+                I::ALL
+            }
+        })
+    }
+
+    /// The graph to compile the cell's tapes from, when `pr` (pruned to the cell) has nodes
+    /// that `f32` would round by more than the cell resolves (`ir::precise`), and the roots
+    /// to compile.
+    fn precise(&self, pr: &Pruned, epsilon: f64) -> (Option<Graph>, Vec<Id>) {
+        if !self.size.is_finite() {
+            return (None, pr.roots.clone());
+        }
+        let quantum = epsilon_at(DVec4::splat(self.size / 2.0), epsilon);
+        match precise(&pr.graph, &pr.roots, self.region(), quantum) {
+            Some((g, roots)) => (Some(g), roots),
+            None => (None, pr.roots.clone()),
+        }
+    }
+}
+
 impl Cells {
     /// Cells over the cube of edge `size` at corner `lo`, from the frame's optimised graph.
     /// `scene` is the scene's distance and nearest object, `interior` the interior's, and
     /// `objects` each object's distance. `unbounded` lists (object index, distance) for the
     /// objects that may reach outside the box `bounded`; every other object lies inside it,
-    /// and the box inside the cube.
+    /// and the box inside the cube. Near surfaces, cells resolve `epsilon` (the marching
+    /// epsilon) however large the cube.
     pub fn new(
         g: &Graph,
         tapes: Roots,
-        lo: DVec4,
-        size: f64,
+        (lo, size): (DVec4, f64),
         bounded: (DVec4, DVec4),
         unbounded: &[(usize, Id)],
+        epsilon: f64,
     ) -> Cells {
         let interior = tapes.interior.is_some();
+        let needs = Needs { interior, epsilon };
         let whole = Pruned {
             graph: g.clone(),
             roots: tapes.flat(),
@@ -156,7 +208,7 @@ impl Cells {
             size,
             origin: centre,
         };
-        let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, interior);
+        let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, needs);
         let mut og = g.clone();
         let scene = nearest(&mut og, unbounded);
         let abs: Vec<(usize, Id)> = (unbounded.iter())
@@ -177,7 +229,7 @@ impl Cells {
             size: f64::INFINITY,
             origin: centre,
         };
-        let outside = Cell::new(&beyond, DVec4::ZERO, everywhere, 0, 0, interior);
+        let outside = Cell::new(&beyond, DVec4::ZERO, everywhere, 0, 0, needs);
         let roots: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
         let (graph, map) = beyond.graph.rebuild(&roots, |g, n| g.intern(n));
         Cells {
@@ -201,7 +253,7 @@ impl Cells {
     /// A path that leads nowhere yet, for `locate`.
     pub fn path(&self) -> Path<'_> {
         Path {
-            cells: [&self.root; MAX_DEPTH as usize + 1],
+            cells: [&self.root; PRECISE_DEPTH as usize + 1],
             len: 0,
         }
     }
@@ -305,16 +357,10 @@ impl Cell {
         place: Place,
         depth: u32,
         parent_len: usize,
-        interior: bool,
+        needs: Needs,
     ) -> Cell {
         let Place { lo, size, origin } = place;
-        let region = std::array::from_fn(|a| {
-            if size.is_finite() {
-                I::new(lo[a] - origin[a], lo[a] + size - origin[a])
-            } else {
-                I::ALL
-            }
-        });
+        let region = place.region();
         let shift = (origin - parent_origin).to_array();
         let reach = if size.is_finite() {
             REACH * size
@@ -322,29 +368,25 @@ impl Cell {
             f64::INFINITY
         };
         let pr = prune(&parent.graph, &parent.roots, region, shift, reach);
-        let scene = Tape::compile("scene", &pr.graph, &pr.roots[..2]);
-        let interior = interior.then(|| Tape::compile("interior", &pr.graph, &pr.roots[2..4]));
+        let (precise, roots) = place.precise(&pr, needs.epsilon);
+        let tapes = precise.as_ref().unwrap_or(&pr.graph);
+        let scene = Tape::compile("scene", tapes, &roots[..2]);
+        let interior = (needs.interior).then(|| Tape::compile("interior", tapes, &roots[2..4]));
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
-        let linear = pieces(&pr.graph, pr.roots[0], pr.roots[1]).map(|ps| {
-            (ps.iter())
-                .map(|p| Linear {
-                    g: DVec4::from_array(p.g),
-                    c: p.c,
-                    object: p.object.max(0.0) as usize,
-                })
-                .collect()
-        });
+        let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
         let len = scene.code.len() + interior.as_ref().map_or(0, |t| t.code.len());
         // A cell with no surface in it is crossed in one jump and never split. Others split
         // while that still shortens the tapes (where two surfaces meet, no subdivision
         // separates them), and at the first levels in any case: the first splits of a cube
         // around a whole scene rarely separate its objects, but they do carve out empty space.
+        // Cells with a surface also split while they are too large for `f32` to resolve the
+        // epsilon in them.
         let empty = lower[0].min(lower[1]) > 0.0;
-        let split = depth < MAX_DEPTH
+        let shorter = depth < MAX_DEPTH
             && len > SPLIT_LEN
-            && (len < parent_len || depth < FREE_DEPTH || len > LONG_LEN)
-            && !empty
-            && linear.is_none();
+            && (len < parent_len || depth < FREE_DEPTH || len > LONG_LEN);
+        let finer = depth < PRECISE_DEPTH && size > PRECISE_EDGE * needs.epsilon;
+        let split = (shorter || finer) && !empty && exact.is_none();
         Cell {
             lo,
             size,
@@ -354,8 +396,9 @@ impl Cell {
             objects: OnceLock::new(),
             reach,
             lower,
-            linear,
+            exact,
             graph: pr,
+            needs,
             depth,
             len,
             children: (0..if split { 16 } else { 0 })
@@ -367,11 +410,28 @@ impl Cell {
     /// Each object's distance in the cell, local to its origin.
     pub fn objects(&self) -> &[Tape] {
         self.objects.get_or_init(|| {
-            let pr = &self.graph;
-            (pr.roots[4..].iter())
-                .map(|r| Tape::compile("object", &pr.graph, &[*r]))
+            let place = Place {
+                lo: self.lo,
+                size: self.size,
+                origin: self.origin,
+            };
+            let (precise, roots) = place.precise(&self.graph, self.needs.epsilon);
+            let tapes = precise.as_ref().unwrap_or(&self.graph.graph);
+            (roots[4..].iter())
+                .map(|r| Tape::compile("object", tapes, &[*r]))
                 .collect()
         })
+    }
+
+    /// The distance below which a point `p` of the cell counts as on a surface: the marching
+    /// `epsilon`, or more where the cell's `f32` tapes cannot resolve it at `p`. Exact
+    /// pieces are evaluated in `f64`, which resolves it.
+    pub fn epsilon(&self, p: DVec4, epsilon: f64) -> f64 {
+        if self.exact.is_some() {
+            epsilon
+        } else {
+            epsilon_at(p - self.origin, epsilon)
+        }
     }
 
     /// Which cell this is, the same in every run (its depth and corner), for ordering work
@@ -411,14 +471,13 @@ impl Cell {
                 size: half,
                 origin: lo + DVec4::splat(half / 2.0),
             };
-            let interior = self.interior.is_some();
             let kid = Cell::new(
                 &self.graph,
                 self.origin,
                 place,
                 self.depth + 1,
                 self.len,
-                interior,
+                self.needs,
             );
             let work = self.graph.graph.len() + kid.graph.graph.len();
             built.fetch_add(work as u64, Ordering::Relaxed);

@@ -1,0 +1,153 @@
+//! Forms of a cell's graph that `f32` evaluates as precisely as the cell needs. Tapes run in
+//! `f32` in coordinates local to their cell, which keeps the point's own bits; but a distance
+//! that is the difference of two large numbers loses them anyway: `|v + q| - R` for a
+//! hypersphere of radius 1e5 is quantised to about 0.008 however small `v` is. Where that
+//! rounding would exceed a fraction of the cell's precision (`quantum`), such nodes are
+//! rewritten into forms whose error scales with `v`, not with `R`:
+//!
+//! - a hypersphere, `|v + q| - R = (|q|^2 - R^2 + 2 q.v + v.v) / (|v + q| + R)`, with the
+//!   constant `|q|^2 - R^2 = (|q| - R)(|q| + R)` computed in `f64`;
+//! - a hyperbox, whose `|v_i + o_i| - h_i` is `s v_i + (|o_i| - h_i)` wherever `v_i + o_i`
+//!   keeps its sign `s`: the same instruction, with the offset folded into the half-extent.
+//!
+//! The graph the children of a cell are pruned from keeps the plain forms (its constants are
+//! `f64`, and intervals bound them more tightly); only the tapes use these.
+
+use super::interval::{I, Intervals};
+use super::{Bin, Graph, Id, K, Node, Var};
+
+/// The rounding of one `f32` operation, relative to the size of its result.
+const ULP: f64 = 1.0 / (1u64 << 24) as f64;
+/// The share of the cell's precision that the rounding of one node may take.
+const SHARE: f64 = 0.125;
+
+/// `roots` of `g`, with the large-offset nodes rewritten where their `f32` rounding would
+/// exceed `SHARE * quantum` for points in `region`; `None` when no node needs it.
+pub fn precise(g: &Graph, roots: &[Id], region: [I; 4], quantum: f64) -> Option<(Graph, Vec<Id>)> {
+    let coarse = |x: f64| 2.0 * x.abs() * ULP > SHARE * quantum;
+    let live = g.live(roots);
+    // Large offsets in the operands cancel against the node's own (an object turned about
+    // a far point); a large radius cancels against the length, and a box's large offset
+    // against its half-extent.
+    let far = |v: [Id; 4]| v.iter().any(|x| coarse(offset(g, *x)));
+    let large = |r: &[K]| r.iter().any(|x| coarse(x.get()));
+    let wants = |i: usize| match g.get(Id(i as u32)) {
+        Node::Length(v, r) => far(v) || (r[4].get() > 0.0 && large(&r[4..])),
+        Node::BoxDist(v, r) => far(v) || large(&r[..4]),
+        _ => false,
+    };
+    if !(0..g.len()).any(|i| live[i] && wants(i)) {
+        return None;
+    }
+    let vars = |v: Var| match v {
+        Var::X | Var::Y | Var::Z | Var::W => region[v.index()],
+        Var::NX | Var::NY | Var::NZ | Var::NW => I::new(-1.0, 1.0),
+        Var::T => I::ALL,
+    };
+    let iv = Intervals::of(g, &vars, Some(&live));
+    let mut out = Graph::new();
+    let mut map = vec![Id(u32::MAX); g.len()];
+    for i in (0..g.len()).filter(|i| live[*i]) {
+        let n = g.get(Id(i as u32));
+        let m = n.map(|c| map[c.0 as usize]);
+        map[i] = match (m, wants(i)) {
+            (Node::Length(v, r), true) => {
+                let (v, q) = centred(&mut out, v, std::array::from_fn(|a| r[a].get()));
+                let radius = r[4].get();
+                if radius > 0.0 && coarse(radius) {
+                    sphere(&mut out, v, q, radius)
+                } else {
+                    let k = |x: f64| K::new(x);
+                    out.intern(Node::Length(v, [k(q[0]), k(q[1]), k(q[2]), k(q[3]), r[4]]))
+                }
+            }
+            (Node::BoxDist(v, r), true) => {
+                let mut r = r.map(K::get);
+                let span: [I; 4] = std::array::from_fn(|a| iv.get(n.children()[a]));
+                let (v, o) = centred(&mut out, v, std::array::from_fn(|a| r[a]));
+                for a in 0..4 {
+                    // The operand lost the offset `o - r` to the box's.
+                    let moved = o[a] - r[a];
+                    r[a] = o[a];
+                    let s = I::new(span[a].lo - moved, span[a].hi - moved);
+                    if coarse(r[a]) {
+                        fold_face(&mut r, a, s);
+                    }
+                }
+                out.intern(Node::BoxDist(v, r.map(K::new)))
+            }
+            (m, _) => out.intern(m),
+        };
+    }
+    Some((out, roots.iter().map(|r| map[r.0 as usize]).collect()))
+}
+
+/// The constant an affine operand adds (0 for others).
+fn offset(g: &Graph, x: Id) -> f64 {
+    match g.get(x) {
+        Node::Affine(_, row) => row[4].get(),
+        _ => 0.0,
+    }
+}
+
+/// Operands `v` with offsets `off` (`|v + off|`), with the offsets of affine operands moved
+/// into `off`: the operands are then as small as the cell, and `off` holds the large part.
+fn centred(g: &mut Graph, v: [Id; 4], off: [f64; 4]) -> ([Id; 4], [f64; 4]) {
+    let (mut v, mut off) = (v, off);
+    for a in 0..4 {
+        if let Node::Affine(x, mut row) = g.get(v[a])
+            && offset(g, v[a]) != 0.0
+        {
+            off[a] += offset(g, v[a]);
+            row[4] = K::new(0.0);
+            v[a] = g.intern(Node::Affine(x, row));
+        }
+    }
+    (v, off)
+}
+
+/// `|v + q| - R` as `(|q|^2 - R^2 + 2 q.v + v.v) / (|v + q| + R)`: each term of the
+/// numerator is rounded relative to `R |v|` at most, and the division by about `2R` leaves
+/// an error relative to `|v|`.
+fn sphere(g: &mut Graph, v: [Id; 4], q: [f64; 4], radius: f64) -> Id {
+    let norm = q.iter().map(|x| x * x).sum::<f64>().sqrt();
+    let c = (norm - radius) * (norm + radius);
+    let k = |x: f64| K::new(x);
+    let linear = g.intern(Node::Affine(
+        v,
+        [
+            k(2.0 * q[0]),
+            k(2.0 * q[1]),
+            k(2.0 * q[2]),
+            k(2.0 * q[3]),
+            k(c),
+        ],
+    ));
+    let len = g.intern(Node::Length(v, [k(0.0); 5]));
+    let square = g.intern(Node::Bin(Bin::Mul, len, len));
+    let num = g.intern(Node::Bin(Bin::Add, linear, square));
+    let den = g.intern(Node::Length(
+        v,
+        [k(q[0]), k(q[1]), k(q[2]), k(q[3]), k(-radius)],
+    ));
+    g.intern(Node::Bin(Bin::Div, num, den))
+}
+
+/// Axis `a` of a hyperbox (`r`: offset, half-extents, rounding) whose operand spans `s`: if
+/// `s + offset` keeps one sign `sign` there, `|x + o| - h = sign x + |o| - h`, which is also
+/// `|x + sign m| - (m - |o| + h)` for any `m >= 2 max |x|`: small constants, exact in `f64`.
+fn fold_face(r: &mut [f64; 9], a: usize, s: I) {
+    let (o, h) = (r[a], r[4 + a]);
+    let shifted = I::new(s.lo + o, s.hi + o);
+    if !(shifted.excludes_zero() && s.lo.is_finite() && s.hi.is_finite()) {
+        return;
+    }
+    // A power of two, exact in `f32`.
+    let m = (2.0 * s.lo.abs().max(s.hi.abs()))
+        .max(f64::MIN_POSITIVE)
+        .log2()
+        .ceil()
+        .exp2();
+    r[a] = m.copysign(o);
+    r[4 + a] = m - o.abs() + h;
+}
