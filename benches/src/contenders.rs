@@ -4,7 +4,7 @@
 use crate::fidget_eval::FidgetEval;
 use crate::native;
 use crate::scenes::Scene;
-use crate::vm::VmScene;
+use crate::vm::{VmCells, VmScene};
 use crate::workload::Points;
 use fidget::eval::MathFunction;
 
@@ -14,6 +14,11 @@ pub trait Contender {
     fn run(&mut self, pts: &Points, out: &mut [f32]);
     /// Nearest-object ids from the last run, for contenders that compute them.
     fn ids(&self) -> Option<&[f32]> {
+        None
+    }
+    /// For contenders that give a lower bound where the distance is large (pruned cells): the
+    /// value at each point of the last run below which theirs is exact.
+    fn reach(&self) -> Option<&[f32]> {
         None
     }
 }
@@ -132,5 +137,20 @@ impl Contender for Vm {
                 *o = self.scene.eval_point(pts.get(i));
             }
         }
+    }
+}
+
+/// The project VM on each point's pruned cell tape, as the marcher runs it.
+pub struct Cells(pub VmCells);
+
+impl Contender for Cells {
+    fn name(&self) -> &'static str {
+        "VM pruned cells"
+    }
+    fn run(&mut self, pts: &Points, out: &mut [f32]) {
+        self.0.eval(pts, out);
+    }
+    fn reach(&self) -> Option<&[f32]> {
+        Some(&self.0.reach)
     }
 }

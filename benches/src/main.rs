@@ -3,7 +3,8 @@
 //!
 //! Every scene is evaluated over two point sets (uniform random points, and the points a sphere
 //! tracer visits) by every contender: native scalar and packet code, fidget's interpreter and JIT,
-//! and the project's VM (batched, and one point per call). Each contender gets a warm-up run, then
+//! and the project's VM (batched, one point per call, and on the pruned tapes of
+//! the renderer's cells). Each contender gets a warm-up run, then
 //! `--runs` timed runs taken round-robin across contenders; we report the median ns per point,
 //! the ratio to the native packet code, and the largest difference from the native scalar result.
 //! Single-threaded throughout.
@@ -23,11 +24,12 @@ mod vm;
 mod workload;
 
 use clap::Parser;
-use contenders::{Contender, Fidget, Native, Vm};
+use contenders::{Cells, Contender, Fidget, Native, Vm};
 use report::Row;
-use scenes::{D4Tiled, Room, Scene, Spheres16, Union200};
+use scenes::{D4Tiled, Room, Scene, Spheres16, Spheres1024, Union200};
 use std::path::PathBuf;
 use std::time::Instant;
+use vm::VmCells;
 
 #[derive(Parser)]
 #[command(about = "SDF evaluation benchmark: the hyperslice VM against native Rust and fidget")]
@@ -58,6 +60,7 @@ fn main() {
     bench(&D4Tiled::new(), &opts, &mut rows);
     bench(&Room::new(), &opts, &mut rows);
     bench(&Union200::new(), &opts, &mut rows);
+    bench(&Spheres1024::new(), &opts, &mut rows);
     report::table(&rows);
     report::targets(&rows);
 }
@@ -94,6 +97,7 @@ fn bench<S: Scene>(scene: &S, opts: &Opts, rows: &mut Vec<Row>) {
         Box::new(jit),
         Box::new(vm_batched),
         Box::new(Vm::point(&source)),
+        Box::new(Cells(VmCells::compile(&source))),
     ];
 
     let cam = workload::Camera::at(scene.camera());
@@ -140,6 +144,7 @@ fn bench<S: Scene>(scene: &S, opts: &Opts, rows: &mut Vec<Row>) {
                 ns_per_point,
                 out,
                 &reference,
+                c.reach(),
                 id_mismatches,
             ));
         }

@@ -1,4 +1,4 @@
-//! The four benchmark scenes. Each is defined once, by its parameter arrays; from them come
+//! The five benchmark scenes. Each is defined once, by its parameter arrays; from them come
 //! - the `.4ds` source the VM compiles ([`Scene::source`]),
 //! - the distance formula, generic over [`Num`] ([`Scene::dist`]): instantiated with `f32` it is
 //!   the native scalar closure, with `F8` the native packet, with `fidget::context::Tree` the
@@ -391,5 +391,52 @@ impl Scene for Union200 {
             );
         }
         (best, id)
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+
+/// `spheres1024`: a 32 x 32 grid of hyperspheres in the xz plane, the literal union of
+/// `benches/scenes/spheres.4ds -D n=32` without its floor: the scene whose whole tape is long
+/// and whose pruned cells hold a sphere or two (the "VM pruned cells" contender).
+pub struct Spheres1024 {
+    balls: Vec<Ball>,
+}
+
+impl Spheres1024 {
+    pub fn new() -> Spheres1024 {
+        let (n, spacing) = (32, 12.0 / 32.0);
+        let at = |k: usize| (k as f32 - n as f32 / 2.0 + 0.5) * spacing;
+        let balls = (0..n * n)
+            .map(|k| Ball {
+                c: [at(k / n), 0.0, at(k % n), 0.0],
+                r: spacing * 0.35,
+            })
+            .collect();
+        Spheres1024 { balls }
+    }
+}
+
+impl Scene for Spheres1024 {
+    fn name(&self) -> &'static str {
+        "spheres1k"
+    }
+    fn half_width(&self) -> f32 {
+        6.0
+    }
+    fn camera(&self) -> [f32; 4] {
+        [0.0, 1.5, -8.0, 0.05]
+    }
+    fn source(&self) -> String {
+        let shapes: Vec<String> = self.balls.iter().map(Ball::source).collect();
+        header(self.name()) + &union_object("s", &shapes)
+    }
+    #[inline(always)]
+    fn dist<T: Num>(&self, p: &V4<T>) -> T {
+        let mut d = self.balls[0].dist(p);
+        for b in &self.balls[1..] {
+            d = d.min(&b.dist(p));
+        }
+        d
     }
 }

@@ -1,8 +1,13 @@
 //! The project VM's slot in the benchmark: compile a `.4ds` source through the whole pipeline
 //! (check, lower, optimise, emit), then evaluate the scene tape over slices of points (batched,
-//! 64 lanes) or at one point (the same interpreter with one lane).
+//! 64 lanes) or at one point (the same interpreter with one lane), or each point on the tape of
+//! its cell, as the marcher does (`VmCells`).
 
+use glam::DVec4;
 use hyperslice::Compilation;
+use hyperslice::compile::Compiled;
+use hyperslice::render::frame::{Features, FrameScene};
+use hyperslice::scene::Scene;
 use hyperslice::vm::{self, LANES, Regs, Tape};
 
 pub struct VmScene {
@@ -14,14 +19,9 @@ pub struct VmScene {
 impl VmScene {
     /// Compiles a scene; panics with the diagnostics if it fails.
     pub fn compile(source: &str) -> VmScene {
-        let c = Compilation::from_source("bench.4ds", source);
-        let Some(scene) = c.scene.as_ref().filter(|_| !c.has_errors()) else {
-            panic!("{}", c.render_diagnostics(false));
-        };
+        let scene = checked(source);
         // The scene tape with `t` folded in, as the renderer runs it per frame.
-        let tape = hyperslice::compile::Compiled::new(scene)
-            .program(Some(0.0))
-            .scene;
+        let tape = Compiled::new(&scene).program(Some(0.0)).scene;
         VmScene {
             batch: Regs::new(&tape),
             one: Regs::new(&tape),
@@ -41,5 +41,72 @@ impl VmScene {
     /// Instructions and registers of the tape, for the report.
     pub fn size(&self) -> (usize, usize) {
         (self.tape.code.len(), self.tape.regs)
+    }
+}
+
+/// The checked scene of a source; panics with the diagnostics if it has errors.
+fn checked(source: &str) -> Scene {
+    let c = Compilation::from_source("bench.4ds", source);
+    match c.scene {
+        Some(scene) if !c.has_errors() => scene,
+        _ => panic!("{}", c.render_diagnostics(false)),
+    }
+}
+
+/// The scene's first frame as the renderer marches it: each point is evaluated on the pruned
+/// tape of the cell that holds it (`vm::cells`), runs of points in one cell together, 64 lanes
+/// at a time. Cells are built when a point first reaches them (in the warm-up run). A cell's
+/// tape is exact where the distance is below its reach, a lower bound of at least the reach
+/// elsewhere; outside the cells' cube, the distance is also cut to the cube (`Cells::gap`).
+pub struct VmCells {
+    frame: FrameScene,
+    batch: Regs<f32, LANES>,
+    /// Below this, each point of the last run has the exact distance.
+    pub reach: Vec<f32>,
+}
+
+impl VmCells {
+    pub fn compile(source: &str) -> VmCells {
+        let scene = checked(source);
+        let compiled = Compiled::new(&scene);
+        let frame = FrameScene::new(&scene, &compiled, Features::of(&compiled), 0.0);
+        VmCells {
+            batch: Regs::new(&frame.scene),
+            frame,
+            reach: vec![],
+        }
+    }
+
+    pub fn eval(&mut self, pts: &crate::workload::Points, out: &mut [f32]) {
+        let cells = &self.frame.cells;
+        self.reach.resize(pts.len(), 0.0);
+        let mut path = cells.path();
+        let mut i = 0;
+        while i < pts.len() {
+            let at = |k: usize| DVec4::from_array(pts.get(k).map(f64::from));
+            let cell = cells.locate(&mut path, at(i));
+            // The run of points in this cell, up to one batch.
+            let mut end = i + 1;
+            while end < pts.len() && end - i < LANES && cell.contains(at(end)) {
+                end += 1;
+            }
+            self.batch.fit(&cell.scene);
+            for (lane, k) in (i..end).enumerate() {
+                let local = (at(k) - cell.origin).as_vec4();
+                for axis in 0..4 {
+                    self.batch.input(axis)[lane] = local[axis];
+                }
+            }
+            vm::run(&cell.scene, &mut self.batch);
+            let d = self.batch.get(cell.scene.outputs[0]);
+            for (lane, k) in (i..end).enumerate() {
+                (out[k], self.reach[k]) = if cells.is_outside(cell) {
+                    (d[lane].min(cells.gap(at(k)) as f32), 0.0)
+                } else {
+                    (d[lane], cell.reach as f32)
+                };
+            }
+            i = end;
+        }
     }
 }
