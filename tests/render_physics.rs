@@ -8,7 +8,7 @@
 mod common;
 
 use common::*;
-use glam::DVec3;
+use glam::{DVec3, DVec4};
 use hyperslice::compile::Compiled;
 use hyperslice::render::driver::{self, Options, Rendered};
 use hyperslice::render::frame::{Features, FrameScene};
@@ -448,20 +448,13 @@ struct Marched {
     compiled: Compiled,
 }
 
-fn march_camera_rays(src: &str, (w, h): (u32, u32)) -> Marched {
+/// Rays of a scene's first frame (made from it by `rays`), marched through its cells.
+fn march_rays(src: &str, rays: impl FnOnce(&FrameScene) -> Vec<Ray>) -> Marched {
     let c = hyperslice::Compilation::from_source("rays.4ds", src);
     let scene = c.scene.expect("a scene");
     let compiled = Compiled::new(&scene);
     let frame = FrameScene::new(&scene, &compiled, Features::of(&compiled), 0.0);
-    let camera = &frame.camera;
-    let rays: Vec<Ray> = (0..w * h)
-        .map(|i| Ray {
-            o: camera.position,
-            d: camera.direction((i % w) as f64 + 0.5, (i / w) as f64 + 0.5, w, h),
-            tmax: f64::INFINITY,
-            interior: false,
-        })
-        .collect();
+    let rays = rays(&frame);
     let limits = Limits {
         epsilon: scene.render.epsilon,
         max_steps: scene.render.max_steps,
@@ -474,6 +467,60 @@ fn march_camera_rays(src: &str, (w, h): (u32, u32)) -> Marched {
         marcher,
         frame,
         compiled,
+    }
+}
+
+/// The camera rays through the pixel centres of a `w` x `h` image, marched.
+fn march_camera_rays(src: &str, (w, h): (u32, u32)) -> Marched {
+    march_rays(src, |frame| {
+        let camera = &frame.camera;
+        (0..w * h)
+            .map(|i| Ray {
+                o: camera.position,
+                d: camera.direction((i % w) as f64 + 0.5, (i / w) as f64 + 0.5, w, h),
+                tmax: f64::INFINITY,
+                interior: false,
+            })
+            .collect()
+    })
+}
+
+#[test]
+fn rays_inside_a_radius_1e5_glass_hypersphere_leave_where_it_ends() {
+    // Rays inside objects march the f32 interior tape, even in cells that rays outside meet
+    // exactly: those cells must resolve the epsilon too. Rays from just under the top of a
+    // glass hypersphere of radius 1e5, rising at 11 degrees, leave where the sphere ends
+    // (once they hit it at once, the cell being 4e5 wide).
+    let src = "render { size = 8 x 6 }
+               camera { from = [0, 1, -3, 0] look = rotate(yz, 20deg) fov = 60deg }
+               object sea { shape = hypersphere(100000) |> translate([0, -100000, 0, 0]) material = glass(ior: 1.33) }";
+    let (radius, centre) = (1e5, DVec4::new(0.0, -1e5, 0.0, 0.0));
+    let m = march_rays(src, |_| {
+        (0..64)
+            .map(|k| {
+                let a = k as f64 * 0.1;
+                Ray {
+                    o: DVec4::new(a.cos(), -4e-4, a.sin(), 0.1 * a.sin()),
+                    d: DVec4::new(a.sin(), 0.2, -a.cos(), 0.3).normalize(),
+                    tmax: f64::INFINITY,
+                    interior: true,
+                }
+            })
+            .collect()
+    });
+    for (ray, hit) in m.rays.iter().zip(&m.hits) {
+        // The far root of |o + t d - c| = R: where the ray leaves the ball.
+        let u = ray.o - centre;
+        let (b, c) = (u.dot(ray.d), u.length_squared() - radius * radius);
+        let exit = -b + (b * b - c).sqrt();
+        let Hit::Surface { t, .. } = *hit else {
+            panic!("{ray:?}: {hit:?}, the sphere ends at {exit}");
+        };
+        // Within the epsilon of the surface, along a ray rising at sin = 0.19.
+        assert!(
+            (t - exit).abs() < 2e-4 / 0.19,
+            "{ray:?} left at {t}, the sphere ends at {exit}"
+        );
     }
 }
 

@@ -134,20 +134,25 @@ fn sphere(g: &mut Graph, v: [Id; 4], q: [f64; 4], radius: f64) -> Id {
 }
 
 /// Axis `a` of a hyperbox (`r`: offset, half-extents, rounding) whose operand spans `s`: if
-/// `s + offset` keeps one sign `sign` there, `|x + o| - h = sign x + |o| - h`, which is also
-/// `|x + sign m| - (m - |o| + h)` for any `m >= 2 max |x|`: small constants, exact in `f64`.
+/// `x + o` keeps one sign `sign` there, `|x + o| - h = sign x + sign o - h`, which is also
+/// `|x + sign m| - (m - sign o + h)` for any `m >= 0` that keeps `x + sign m` of that sign:
+/// small constants, exact in `f64`. (The sign is that of `x + o`, not of `o`: a tiled box's
+/// operand can lie past `-o`. Where `x` has the sign already, `m` is 0.)
 fn fold_face(r: &mut [f64; 9], a: usize, s: I) {
     let (o, h) = (r[a], r[4 + a]);
     let shifted = I::new(s.lo + o, s.hi + o);
     if !(shifted.excludes_zero() && s.lo.is_finite() && s.hi.is_finite()) {
         return;
     }
-    // A power of two, exact in `f32`.
-    let m = (2.0 * s.lo.abs().max(s.hi.abs()))
-        .max(f64::MIN_POSITIVE)
-        .log2()
-        .ceil()
-        .exp2();
-    r[a] = m.copysign(o);
-    r[4 + a] = m - o.abs() + h;
+    let sign = shifted.lo.signum();
+    // The least of `sign x` over the span; `m` must exceed its negative. A power of two,
+    // exact in `f32`.
+    let least = if sign > 0.0 { s.lo } else { -s.hi };
+    let m = if least > 0.0 {
+        0.0
+    } else {
+        (-2.0 * least).max(f64::MIN_POSITIVE).log2().ceil().exp2()
+    };
+    r[a] = sign * m;
+    r[4 + a] = m - sign * o + h;
 }

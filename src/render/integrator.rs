@@ -636,9 +636,10 @@ fn shade(
     shadows: &mut Shadows,
     pixel: &mut PixelSums,
 ) -> bool {
-    // The hit's precision is that of its cell, where its distance was evaluated, not of
-    // its distance from the origin.
-    let eps = h.cell.epsilon(h.p, s.limits.epsilon);
+    // The hit's precision is that of its cell, where its distance was evaluated (on the
+    // interior tape, for a ray inside an object), not of its distance from the origin.
+    let interior = path.stack.len > 0 && fs.interior.is_some() && fs.features.interiors;
+    let eps = h.cell.epsilon(h.p, s.limits.epsilon, interior);
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
     if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {

@@ -178,7 +178,7 @@ impl Marcher {
                 } else {
                     f64::INFINITY
                 };
-                let tol = cell.epsilon(p, limits.epsilon);
+                let tol = cell.epsilon(p, limits.epsilon, r.interior);
                 st.tol = tol;
                 // Nothing in the cell: cross it, or go as far as the bound allows (it holds
                 // at `p`, so a sphere step of that length is safe wherever it ends).

@@ -385,8 +385,11 @@ impl Cell {
         let shorter = depth < MAX_DEPTH
             && len > SPLIT_LEN
             && (len < parent_len || depth < FREE_DEPTH || len > LONG_LEN);
+        // Exact cells need no splitting, but rays inside objects march their f32 interior
+        // tape even there.
         let finer = depth < PRECISE_DEPTH && size > PRECISE_EDGE * needs.epsilon;
-        let split = (shorter || finer) && !empty && exact.is_none();
+        let split = !empty
+            && ((shorter && exact.is_none()) || (finer && (exact.is_none() || needs.interior)));
         Cell {
             lo,
             size,
@@ -423,11 +426,13 @@ impl Cell {
         })
     }
 
-    /// The distance below which a point `p` of the cell counts as on a surface: the marching
-    /// `epsilon`, or more where the cell's `f32` tapes cannot resolve it at `p`. Exact
-    /// pieces are evaluated in `f64`, which resolves it.
-    pub fn epsilon(&self, p: DVec4, epsilon: f64) -> f64 {
-        if self.exact.is_some() {
+    /// The distance below which a point `p` of the cell counts as on a surface, for a ray
+    /// inside an object (`interior`, which marches the `f32` interior tape) or not: the
+    /// marching `epsilon`, or more where the cell's `f32` tapes cannot resolve it at `p`.
+    /// Exact pieces, which rays outside objects meet, are evaluated in `f64`, which resolves
+    /// it.
+    pub fn epsilon(&self, p: DVec4, epsilon: f64, interior: bool) -> f64 {
+        if self.exact.is_some() && !interior {
             epsilon
         } else {
             epsilon_at(p - self.origin, epsilon)
