@@ -809,3 +809,56 @@ fn precise_forms_keep_surfaces_of_radius_1e5_to_the_epsilon() {
         }
     }
 }
+
+/// Cells meet a length of the point exactly only where it is a distance: of a turned point or
+/// a projection (orthonormal rows), not of a stretched one, whose value is no distance bound.
+#[test]
+fn only_distances_become_exact_spheres() {
+    use hyperslice::ir::exact::{Form, pieces};
+    use hyperslice::ir::{Graph, K, Node};
+    let k = K::new;
+    for (rows, exact) in [
+        (
+            [
+                [0.6, 0.8, 0.0, 0.0],
+                [-0.8, 0.6, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ],
+            true,
+        ),
+        (
+            [
+                [2.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ],
+            false,
+        ),
+        (
+            [
+                [0.6, 0.8, 0.0, 0.0],
+                [0.6, 0.8, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ],
+            false,
+        ),
+    ] {
+        let mut g = Graph::new();
+        let vars = Var::POINT.map(|v| g.intern(Node::Var(v)));
+        let zero = g.intern(Node::Const(k(0.0)));
+        let mut ops = [zero; 4];
+        for (op, row) in ops.iter_mut().zip(rows) {
+            *op = g.intern(Node::Affine(
+                vars,
+                [k(row[0]), k(row[1]), k(row[2]), k(row[3]), k(0.5)],
+            ));
+        }
+        let d = g.intern(Node::Length(ops, [k(0.0), k(0.0), k(0.0), k(0.0), k(1.0)]));
+        let id = g.intern(Node::Const(k(0.0)));
+        let got = pieces(&g, d, id);
+        assert_eq!(got.is_some(), exact, "rows {rows:?}: {got:?}");
+        if let Some(p) = got {
+            assert!(matches!(p[0].form, Form::Ball { r: 1.0, .. }), "{p:?}");
+        }
+    }
+}

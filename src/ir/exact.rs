@@ -18,7 +18,8 @@ pub enum Form {
     /// `g . p + c`
     Plane { g: [f64; 4], c: f64 },
     /// `sign (|A p + b| - r)`, with the rows of `A` in `rows`: a hypersphere (or, seen from
-    /// inside, its complement) of any linear image of the point.
+    /// inside, its complement) of a linear image of the point (`first` solves any `A`; the
+    /// pieces of cells have orthonormal rows, so that the value is a distance).
     Ball {
         rows: [[f64; 4]; 4],
         b: [f64; 4],
@@ -176,7 +177,9 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
     }
 }
 
-/// `id` as one plane or sphere, when it is one.
+/// `id` as one plane or sphere, when it is one. A sphere's map must be orthonormal on the
+/// rows it uses (a rotation, a projection onto some axes): then `|A p + b| - r` is a distance
+/// bound like the others, which the marcher's steps rely on near the piece.
 fn form(g: &Graph, id: Id) -> Option<Form> {
     if let Some((g, c)) = linear(g, id) {
         return Some(Form::Plane { g, c });
@@ -189,6 +192,15 @@ fn form(g: &Graph, id: Id) -> Option<Form> {
     for i in 0..4 {
         (rows[i], b[i]) = linear(g, v[i])?;
         b[i] += r[i].get();
+    }
+    let used: Vec<&[f64; 4]> = rows.iter().filter(|r| **r != [0.0; 4]).collect();
+    for (i, a) in used.iter().enumerate() {
+        for (j, b) in used.iter().enumerate() {
+            let want = if i == j { 1.0 } else { 0.0 };
+            if (dot(**a, **b) - want).abs() > 1e-9 {
+                return None;
+            }
+        }
     }
     Some(Form::Ball {
         rows,
