@@ -630,6 +630,31 @@ fn cost_per_ray_is_flat_in_the_number_of_objects() {
 }
 
 #[test]
+fn a_tiny_epsilon_does_not_split_a_tiling_into_a_cell_per_step() {
+    // Cells split to resolve the epsilon in f32, but no epsilon below 1e-5: in a D4 packing,
+    // whose intervals put a surface in almost every cell, resolving 1e-9 built a cell for
+    // nearly every step (3.2 GB for a 48 x 36 image at 2 spp).
+    let scene = |epsilon: &str| {
+        format!(
+            "render {{ size = 8 x 6  epsilon = {epsilon} }}
+             camera {{ from = [0.3, 0.2, -4, 0.1] fov = 60deg }}
+             object lattice {{ shape = hypersphere(0.6) |> tile(d4(scale: 1.6)) material = diffuse() }}
+             object lamp {{ shape = hypersphere(1) |> translate([0, 8, 8, 0]) material = light(intensity: 5) }}"
+        )
+    };
+    let built = |epsilon: &str| {
+        let m = march_camera_rays(&scene(epsilon), (48, 36));
+        m.frame.cells.built()
+    };
+    let (default, tiny) = (built("1e-4"), built("1e-9"));
+    eprintln!("nodes built: {default} at epsilon 1e-4, {tiny} at 1e-9");
+    assert!(
+        tiny <= 2 * default + 5000,
+        "{tiny} nodes at 1e-9, {default} at 1e-4"
+    );
+}
+
+#[test]
 fn one_marching_step_ends_every_ray() {
     let src = "render { size = 6 x 4  spp = 2  max_steps = 1 }
                sky = rgb(1)

@@ -32,6 +32,10 @@ const PRECISE_DEPTH: u32 = 24;
 /// A cell resolves the epsilon when its edge is at most this many epsilons: `f32` then
 /// rounds its local coordinates by about a sixteenth of it.
 const PRECISE_EDGE: f64 = (1u64 << 20) as f64;
+/// Cells split to resolve no epsilon below this (the final preset's): in a scene whose
+/// surfaces fill space (a tiling), resolving 1e-9 would build a cell for almost every step.
+/// Below it, the tolerance grows with the cell as `f32` needs.
+const PRECISE_FLOOR: f64 = 1e-5;
 /// Levels split whether or not the split shortened the tapes: the first splits of a cube
 /// around a whole scene rarely separate its objects.
 const FREE_DEPTH: u32 = 2;
@@ -387,7 +391,7 @@ impl Cell {
             && (len < parent_len || depth < FREE_DEPTH || len > LONG_LEN);
         // Exact cells need no splitting, but rays inside objects march their f32 interior
         // tape even there.
-        let finer = depth < PRECISE_DEPTH && size > PRECISE_EDGE * needs.epsilon;
+        let finer = depth < PRECISE_DEPTH && size > PRECISE_EDGE * needs.epsilon.max(PRECISE_FLOOR);
         let split = !empty
             && ((shorter && exact.is_none()) || (finer && (exact.is_none() || needs.interior)));
         Cell {
