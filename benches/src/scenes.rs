@@ -102,6 +102,22 @@ impl Ball {
     }
 }
 
+/// A union of balls as one object's `.4ds` source.
+fn balls_source(name: &str, balls: &[Ball]) -> String {
+    let shapes: Vec<String> = balls.iter().map(Ball::source).collect();
+    header(name) + &union_object("s", &shapes)
+}
+
+/// The distance to the nearest of `balls`.
+#[inline(always)]
+fn balls_dist<T: Num>(balls: &[Ball], p: &V4<T>) -> T {
+    let mut d = balls[0].dist(p);
+    for b in &balls[1..] {
+        d = d.min(&b.dist(p));
+    }
+    d
+}
+
 impl Spheres16 {
     pub fn new() -> Spheres16 {
         let mut rng = Rng::new(16);
@@ -123,16 +139,11 @@ impl Scene for Spheres16 {
         3.0
     }
     fn source(&self) -> String {
-        let shapes: Vec<String> = self.balls.iter().map(Ball::source).collect();
-        header(self.name()) + &union_object("s", &shapes)
+        balls_source(self.name(), &self.balls)
     }
     #[inline(always)]
     fn dist<T: Num>(&self, p: &V4<T>) -> T {
-        let mut d = self.balls[0].dist(p);
-        for b in &self.balls[1..] {
-            d = d.min(&b.dist(p));
-        }
-        d
+        balls_dist(&self.balls, p)
     }
 }
 
@@ -428,15 +439,10 @@ impl Scene for Spheres1024 {
         [0.0, 1.5, -8.0, 0.05]
     }
     fn source(&self) -> String {
-        let shapes: Vec<String> = self.balls.iter().map(Ball::source).collect();
-        header(self.name()) + &union_object("s", &shapes)
+        balls_source(self.name(), &self.balls)
     }
     #[inline(always)]
     fn dist<T: Num>(&self, p: &V4<T>) -> T {
-        let mut d = self.balls[0].dist(p);
-        for b in &self.balls[1..] {
-            d = d.min(&b.dist(p));
-        }
-        d
+        balls_dist(&self.balls, p)
     }
 }
