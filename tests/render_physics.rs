@@ -581,6 +581,47 @@ fn grazing_rays_along_a_halfspace() {
     assert_eq!(r.stats.dropped, 0);
 }
 
+#[test]
+fn grazing_rays_along_a_floor_past_a_custom_field() {
+    // A custom field may reach anywhere, so rays outside the cube of bounded objects marched
+    // on it and the floor together, and the rays just below the horizon crept over the floor
+    // until they ran out of steps (a black line). Once a ray proves it never meets the field,
+    // it meets the floor alone, exactly: where the plane says.
+    let src = "render { size = 8 x 6 }
+               camera { from = [0, 6, -14, 0] to = [0, 0, 0, 0] fov = 60deg }
+               object balls { shape = sdf |p| length(vec4(abs(p.x) - 2, p.y - 1, p.z, p.w)) - 1 material = diffuse() }
+               object floor { shape = halfspace(offset: 0) material = diffuse() }";
+    use hyperslice::ir::eval::{Reference, vars};
+    let m = march_camera_rays(src, (160, 120));
+    let ir = &m.compiled.ir;
+    let mut reference = Reference::new(&ir.graph, &[ir.distance]);
+    let (mut floor, mut grazing, mut balls) = (0, 0, 0);
+    for (ray, hit) in m.rays.iter().zip(&m.hits) {
+        assert!(!matches!(hit, Hit::OutOfSteps), "{ray:?} ran out of steps");
+        if let Hit::Surface { t, object: 0 } = *hit {
+            reference.run(&vars((ray.o + ray.d * t).to_array(), [0.0; 4], 0.0));
+            let d = reference.value(ir.distance);
+            assert!(d.abs() < 2e-4, "{ray:?} met the balls {d} from a surface");
+            balls += 1;
+        }
+        if let Hit::Surface { t, object: 1 } = *hit {
+            // Hits lie within the epsilon of the floor, measured along the normal.
+            let plane = -ray.o.y / ray.d.y;
+            assert!(
+                ((t - plane) * ray.d.y).abs() < 2e-4,
+                "{ray:?} met the floor at {t}, the plane at {plane}"
+            );
+            floor += 1;
+            grazing += (t > 500.0) as usize;
+        }
+    }
+    eprintln!("{floor} rays met the floor, {grazing} of them past t = 500; {balls} the balls");
+    assert!(
+        grazing > 50 && balls > 50,
+        "{grazing} rays met the floor far away, {balls} the balls"
+    );
+}
+
 /// `n` x `n` hyperspheres over a floor as one literal union (`benches/scenes/spheres.4ds`).
 fn sphere_grid(n: u32) -> String {
     format!(

@@ -65,6 +65,8 @@ struct State {
     relax: bool,
     /// The next `t` at which to try to prove that the ray has left the scene.
     escape_at: f64,
+    /// The unbounded objects the ray may still meet (`Cells::escapes`).
+    keep: u64,
     /// Where the ray enters the cells' cube from outside (`Cells::enter`).
     enter: f64,
     /// The point at `t`, and the distance below which it is on a surface.
@@ -138,6 +140,7 @@ impl Marcher {
         self.state.resize(rays.len(), State::default());
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
+            st.keep = cells.unbounded();
             // An unsigned distance does not change sign where a relaxed step crosses a
             // surface, and the spheres of the two points still touch there: rays inside
             // objects take plain steps.
@@ -156,20 +159,24 @@ impl Marcher {
                 let (r, st) = (&rays[k], &mut self.state[k]);
                 let p = r.o + r.d * st.t;
                 st.p = p;
-                let cell = cells.locate(&mut paths[k], p);
-                at[k] = Some(cell);
-                if !cell.size.is_finite() && st.t >= st.escape_at {
-                    // The ray is known to be clear only up to where the last step would have
-                    // ended as a plain one (a relaxed step is checked at the next point): the
-                    // proof starts there.
-                    let clear = p - r.d * (st.step - st.radius).max(0.0);
-                    if cells.escapes(clear, r.d) {
-                        hits[k] = Hit::Beyond;
-                        continue;
+                let mut cell = cells.locate(&mut paths[k], p);
+                if cells.is_outside(cell) {
+                    if st.t >= st.escape_at {
+                        // The ray is known to be clear only up to where the last step would
+                        // have ended as a plain one (a relaxed step is checked at the next
+                        // point): the proof starts there.
+                        let clear = p - r.d * (st.step - st.radius).max(0.0);
+                        if cells.escapes(clear, r.d, &mut st.keep) {
+                            hits[k] = Hit::Beyond;
+                            continue;
+                        }
+                        // Try again once the ray has gone twice as far.
+                        st.escape_at = 2.0 * st.t + 1.0;
                     }
-                    // Try again once the ray has gone twice as far.
-                    st.escape_at = 2.0 * st.t + 1.0;
+                    // Objects the ray provably never meets no longer shorten its steps.
+                    cell = cells.outside(st.keep);
                 }
+                at[k] = Some(cell);
                 let class = r.interior as usize;
                 // Outside the cube, distances hold only as far as the cube: so far reach
                 // the spheres that check a relaxed step.

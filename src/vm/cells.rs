@@ -91,8 +91,94 @@ pub struct Cells {
     root: Cell,
     /// Points outside the cube: the scene without the bounded objects, which all lie inside
     /// it. A step from such a point may go no further than to the cube.
-    outside: Cell,
+    outside: Outside,
     escape: Escape,
+}
+
+/// The cells outside the cube: one of every unbounded object, and one of each subset of
+/// them, built when a ray first proves it meets no other (`Cells::escapes`): a ray grazing a
+/// floor past a custom field meets the floor exactly once the field is out of its way.
+struct Outside {
+    all: Cell,
+    graph: Graph,
+    unbounded: Vec<(usize, Id)>,
+    objects: Vec<Id>,
+    needs: Needs,
+    origin: DVec4,
+    /// Indexed by the set's bits (bit `i`: `unbounded[i]`); empty for more than `SUBSETS`
+    /// unbounded objects.
+    subsets: Box<[OnceLock<Cell>]>,
+}
+
+/// The most unbounded objects whose subsets get cells of their own.
+const SUBSETS: usize = 6;
+
+impl Outside {
+    fn new(
+        graph: &Graph,
+        unbounded: &[(usize, Id)],
+        objects: Vec<Id>,
+        needs: Needs,
+        origin: DVec4,
+    ) -> Outside {
+        let n = unbounded.len();
+        let subsets = if n <= SUBSETS { 1 << n } else { 0 };
+        Outside {
+            all: outside(graph, unbounded, &objects, needs, origin),
+            graph: graph.clone(),
+            unbounded: unbounded.to_vec(),
+            objects,
+            needs,
+            origin,
+            subsets: (0..subsets).map(|_| OnceLock::new()).collect(),
+        }
+    }
+
+    /// The cell of the unbounded objects in `keep` (bit `i`: `unbounded[i]`).
+    fn keeping(&self, keep: u64) -> &Cell {
+        match self.subsets.get(keep as usize) {
+            Some(cell) if keep as usize + 1 < self.subsets.len() => cell.get_or_init(|| {
+                let kept: Vec<(usize, Id)> = (self.unbounded.iter().enumerate())
+                    .filter(|(i, _)| keep >> i & 1 == 1)
+                    .map(|(_, &u)| u)
+                    .collect();
+                outside(&self.graph, &kept, &self.objects, self.needs, self.origin)
+            }),
+            _ => &self.all,
+        }
+    }
+}
+
+/// The cell of everything outside the cube where the objects are `unbounded`, local to
+/// `origin`.
+fn outside(
+    g: &Graph,
+    unbounded: &[(usize, Id)],
+    objects: &[Id],
+    needs: Needs,
+    origin: DVec4,
+) -> Cell {
+    let mut og = g.clone();
+    let scene = nearest(&mut og, unbounded);
+    let abs: Vec<(usize, Id)> = (unbounded.iter())
+        .map(|&(i, d)| (i, og.intern(Node::Un(Un::Abs, d))))
+        .collect();
+    let roots = Roots {
+        scene,
+        interior: needs.interior.then(|| nearest(&mut og, &abs)),
+        objects: objects.to_vec(),
+    };
+    let beyond = Pruned {
+        graph: og,
+        roots: roots.flat(),
+        bounds: vec![],
+    };
+    let everywhere = Place {
+        lo: DVec4::splat(f64::NEG_INFINITY),
+        size: f64::INFINITY,
+        origin,
+    };
+    Cell::new(&beyond, DVec4::ZERO, everywhere, 0, 0, needs)
 }
 
 /// The distance below which a point counts as on a surface, at `p` in a tape's local
@@ -213,29 +299,9 @@ impl Cells {
             origin: centre,
         };
         let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, needs);
-        let mut og = g.clone();
-        let scene = nearest(&mut og, unbounded);
-        let abs: Vec<(usize, Id)> = (unbounded.iter())
-            .map(|&(i, d)| (i, og.intern(Node::Un(Un::Abs, d))))
-            .collect();
-        let beyond = Roots {
-            scene,
-            interior: interior.then(|| nearest(&mut og, &abs)),
-            objects: tapes.objects,
-        };
-        let beyond = Pruned {
-            graph: og,
-            roots: beyond.flat(),
-            bounds: vec![],
-        };
-        let everywhere = Place {
-            lo: DVec4::splat(f64::NEG_INFINITY),
-            size: f64::INFINITY,
-            origin: centre,
-        };
-        let outside = Cell::new(&beyond, DVec4::ZERO, everywhere, 0, 0, needs);
+        let outside = Outside::new(g, unbounded, tapes.objects, needs, centre);
         let roots: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
-        let (graph, map) = beyond.graph.rebuild(&roots, |g, n| g.intern(n));
+        let (graph, map) = g.rebuild(&roots, |g, n| g.intern(n));
         Cells {
             built: AtomicU64::new(0),
             root,
@@ -270,7 +336,7 @@ impl Cells {
         }
         if path.len == 0 {
             if !self.root.contains(p) {
-                return &self.outside;
+                return &self.outside.all;
             }
             (path.cells[0], path.len) = (&self.root, 1);
         }
@@ -287,9 +353,15 @@ impl Cells {
         self.built.load(Ordering::Relaxed)
     }
 
-    /// Whether `cell` is the region outside the cube.
+    /// Whether `cell` is (one of) the region outside the cube.
     pub fn is_outside(&self, cell: &Cell) -> bool {
-        std::ptr::eq(cell, &self.outside)
+        !cell.size.is_finite()
+    }
+
+    /// The region outside the cube with only the unbounded objects in `keep` (bit `i`: the
+    /// `i`th, as `escapes` proves them out of a ray's way).
+    pub fn outside(&self, keep: u64) -> &Cell {
+        self.outside.keeping(keep)
     }
 
     /// How far `p` is from the cube (0 inside): outside it, the distance the outside cell
@@ -311,26 +383,41 @@ impl Cells {
 
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
     /// of the bounded objects again, and no unbounded object's distance changes sign anywhere
-    /// in the box the rest of the ray spans.
-    pub fn escapes(&self, p: DVec4, d: DVec4) -> bool {
+    /// in the box the rest of the ray spans. `keep` holds the unbounded objects the ray may
+    /// still meet (bit `i`: the `i`th); those proven out of its way leave it.
+    pub fn escapes(&self, p: DVec4, d: DVec4, keep: &mut u64) -> bool {
         let e = &self.escape;
-        if entry(p, d, e.lo, e.hi).is_some() {
-            return false;
+        // Objects past the mask's 64 bits count only when all are out of the way.
+        let mut rest = true;
+        if !e.roots.is_empty() {
+            let span = |a: usize| match d[a] {
+                x if x > 0.0 => I::new(p[a], f64::INFINITY),
+                x if x < 0.0 => I::new(f64::NEG_INFINITY, p[a]),
+                _ => I::point(p[a]),
+            };
+            let vars = |v: Var| match v {
+                Var::X | Var::Y | Var::Z | Var::W => span(v.index()),
+                _ => I::ALL,
+            };
+            let iv = Intervals::of(&e.graph, &vars, None);
+            for (i, r) in e.roots.iter().enumerate() {
+                let clear = iv.get(*r).excludes_zero();
+                match i {
+                    0..64 if clear => *keep &= !(1 << i),
+                    0..64 => {}
+                    _ => rest &= clear,
+                }
+            }
         }
-        if e.roots.is_empty() {
-            return true;
+        *keep == 0 && rest && entry(p, d, e.lo, e.hi).is_none()
+    }
+
+    /// Every unbounded object, as `escapes` and `outside` take them.
+    pub fn unbounded(&self) -> u64 {
+        match self.escape.roots.len() {
+            n @ 0..64 => (1 << n) - 1,
+            _ => u64::MAX,
         }
-        let span = |a: usize| match d[a] {
-            x if x > 0.0 => I::new(p[a], f64::INFINITY),
-            x if x < 0.0 => I::new(f64::NEG_INFINITY, p[a]),
-            _ => I::point(p[a]),
-        };
-        let vars = |v: Var| match v {
-            Var::X | Var::Y | Var::Z | Var::W => span(v.index()),
-            _ => I::ALL,
-        };
-        let iv = Intervals::of(&e.graph, &vars, None);
-        e.roots.iter().all(|r| iv.get(*r).excludes_zero())
     }
 }
 
