@@ -622,6 +622,39 @@ fn grazing_rays_along_a_floor_past_a_custom_field() {
     );
 }
 
+#[test]
+fn rays_from_a_floor_beyond_the_cells_reach_a_lamp() {
+    // Shadow rays from a floor far beyond the cube of cells prove at once that they leave
+    // the floor; the lamp inside the cube must still stop them. They once jumped to infinity
+    // as soon as no unbounded object was left in their way, and the far floor went unlit.
+    let src = "render { size = 8 x 6 }
+               camera { from = [0, 1, -3, 0] fov = 60deg }
+               object lamp { shape = hypersphere(0.5) |> translate([0, 2, 0, 0]) material = light(intensity: 1) }
+               object floor { shape = halfspace(offset: 0) material = diffuse() }";
+    let lamp = DVec4::new(0.0, 2.0, 0.0, 0.0);
+    let m = march_rays(src, |_| {
+        (0..64)
+            .map(|k| {
+                let a = k as f64 * 0.1;
+                let o = DVec4::new(40.0 * a.cos(), 1e-3, 40.0 * a.sin(), 5.0 * a.sin());
+                Ray {
+                    o,
+                    d: (lamp - o).normalize(),
+                    tmax: f64::INFINITY,
+                    interior: false,
+                }
+            })
+            .collect()
+    });
+    for (ray, hit) in m.rays.iter().zip(&m.hits) {
+        let near = (lamp - ray.o).length() - 0.5;
+        assert!(
+            matches!(*hit, Hit::Surface { t, object: 0 } if (t - near).abs() < 1e-3),
+            "{ray:?}: {hit:?}, the lamp at {near}"
+        );
+    }
+}
+
 /// `n` x `n` hyperspheres over a floor as one literal union (`benches/scenes/spheres.4ds`).
 fn sphere_grid(n: u32) -> String {
     format!(

@@ -188,11 +188,13 @@ impl Marcher {
                 let tol = cell.epsilon(p, limits.epsilon, r.interior);
                 st.tol = tol;
                 // Nothing in the cell: cross it, or go as far as the bound allows (it holds
-                // at `p`, so a sphere step of that length is safe wherever it ends).
+                // at `p`, so a sphere step of that length is safe wherever it ends; outside
+                // the cube, only as far as the cube).
                 if cell.lower[class] > tol {
-                    let step = unrelax(st, cell.lower[class].min(st.holds)).unwrap_or_else(|| {
+                    let lower = cell.lower[class].min(st.holds);
+                    let step = unrelax(st, lower).unwrap_or_else(|| {
                         let exit = past(st.exit(cells, cell, p, r.d), cell);
-                        Step::Advance(exit.max(cell.lower[class]))
+                        Step::Advance(exit.max(lower))
                     });
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
