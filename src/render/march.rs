@@ -138,9 +138,10 @@ impl Marcher {
         hits.resize(rays.len(), Hit::Beyond);
         self.state.clear();
         self.state.resize(rays.len(), State::default());
+        let unbounded = cells.unbounded();
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
-            st.keep = cells.unbounded();
+            st.keep = unbounded;
             // An unsigned distance does not change sign where a relaxed step crosses a
             // surface, and the spheres of the two points still touch there: rays inside
             // objects take plain steps.
@@ -174,7 +175,9 @@ impl Marcher {
                         st.escape_at = 2.0 * st.t + 1.0;
                     }
                     // Objects the ray provably never meets no longer shorten its steps.
-                    cell = cells.outside(st.keep);
+                    if st.keep != unbounded {
+                        cell = cells.outside(st.keep);
+                    }
                 }
                 at[k] = Some(cell);
                 let class = r.interior as usize;

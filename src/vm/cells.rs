@@ -384,9 +384,16 @@ impl Cells {
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
     /// of the bounded objects again, and no unbounded object's distance changes sign anywhere
     /// in the box the rest of the ray spans. `keep` holds the unbounded objects the ray may
-    /// still meet (bit `i`: the `i`th); those proven out of its way leave it.
+    /// still meet (bit `i`: the `i`th); once the ray is past the box, those proven out of
+    /// its way leave it.
     pub fn escapes(&self, p: DVec4, d: DVec4, keep: &mut u64) -> bool {
         let e = &self.escape;
+        // A ray bound for the box cannot escape yet, and is left the intervals until it has
+        // passed it: they cost a pass over the unbounded objects' graph, 14% of a tiling's
+        // render when every attempt paid it.
+        if entry(p, d, e.lo, e.hi).is_some() {
+            return false;
+        }
         // Objects past the mask's 64 bits count only when all are out of the way.
         let mut rest = true;
         if !e.roots.is_empty() {
@@ -409,7 +416,7 @@ impl Cells {
                 }
             }
         }
-        *keep == 0 && rest && entry(p, d, e.lo, e.hi).is_none()
+        *keep == 0 && rest
     }
 
     /// Every unbounded object, as `escapes` and `outside` take them.
