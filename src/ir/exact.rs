@@ -114,6 +114,47 @@ pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
     (out.len() <= MAX_PIECES).then_some(out)
 }
 
+/// The scene's distance `dist` with nearest object `near`, where it is a running min over
+/// objects some of which are a few planes and spheres: their pieces, and the other objects
+/// (object index, distance). None unless both kinds are there.
+pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Vec<(usize, Id)>)> {
+    let (mut exact, mut rest) = (vec![], vec![]);
+    let (mut d, mut n) = (dist, near);
+    loop {
+        let mut forms = vec![];
+        match (g.get(d), g.get(n)) {
+            (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => {
+                let Node::MinId(best, best_id, member, id) = g.get(t) else {
+                    return None;
+                };
+                match min_of_forms(g, member, false, 0, &mut forms) {
+                    Some(()) => exact.extend(forms.into_iter().map(|form| Piece {
+                        form,
+                        object: id.get(),
+                    })),
+                    None => rest.push((id.get() as usize, member)),
+                }
+                (d, n) = (best, best_id);
+            }
+            // Where the running min starts: +infinity, what the cut objects folded into, or
+            // the first object.
+            _ => {
+                let object = g.constant(n)?;
+                match min_of_forms(g, d, false, 0, &mut forms) {
+                    Some(()) => exact.extend(forms.into_iter().map(|form| Piece { form, object })),
+                    None if object >= 0.0 => rest.push((object as usize, d)),
+                    None => return None,
+                }
+                break;
+            }
+        }
+    }
+    exact.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
+    let surface = |p: &Piece| !matches!(p.form, Form::Plane { g, .. } if g == [0.0; 4]);
+    (exact.iter().any(surface) && !rest.is_empty() && exact.len() <= MAX_PIECES)
+        .then_some((exact, rest))
+}
+
 /// The pieces of `dist`, whose object is known (`Ok`) or read from the node `near` (`Err`).
 fn pieces_at(g: &Graph, dist: Id, near: Result<f64, Id>, out: &mut Vec<Piece>) -> Option<()> {
     let object = near.or_else(|n| g.constant(n).ok_or(n));

@@ -13,6 +13,7 @@
 //! ones. A ray sees the sky only when it provably leaves every object (`Cells::escapes`),
 //! never by travelling far.
 
+use crate::ir::exact::Piece;
 use crate::vm::cells::{Cell, Cells};
 use crate::vm::{LANES, Regs, run};
 use glam::DVec4;
@@ -44,6 +45,10 @@ pub struct Limits {
     pub max_steps: u32,
 }
 
+/// The queue's tape class of rays in a partial cell (after 0, the scene's, and 1, the
+/// interior's).
+const PARTIAL: usize = 2;
+
 /// The over-relaxation factor of a ray's first step.
 const OMEGA: f64 = 1.6;
 /// The most a step is over-relaxed, and the share of the step at which the spheres of two
@@ -74,6 +79,11 @@ struct State {
     tol: f64,
     /// How far from `p` its cell's distances hold (`Cells::gap`).
     holds: f64,
+    /// In a partial cell: the nearest piece at `p` and the first the ray meets (`meet`).
+    near: (f64, f64),
+    first: (f64, f64),
+    /// The partial cell the pending step was taken in, by address (0: none).
+    from: usize,
 }
 
 impl State {
@@ -205,21 +215,8 @@ impl Marcher {
                 if let (false, Some(pieces)) = (r.interior, &cell.exact) {
                     self.evaluations += 1;
                     self.instructions += pieces.len() as u64;
-                    let (local, d) = ((p - cell.origin).to_array(), r.d.to_array());
                     let exit = st.exit(cells, cell, p, r.d);
-                    // The nearest piece now, and the first one the ray meets.
-                    let (mut near, mut first) = ((f64::INFINITY, 0.0), (f64::INFINITY, 0.0));
-                    for piece in pieces {
-                        let at = piece.form.value(local);
-                        if at < near.0 {
-                            near = (at, piece.object);
-                        }
-                        match piece.form.first(local, d) {
-                            Some(t) if t < first.0 => first = (t, piece.object),
-                            _ => {}
-                        }
-                    }
-                    let object = |o: f64| o.max(0.0) as usize;
+                    let (near, first) = meet(pieces, p - cell.origin, r.d);
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
                     } else if near.0 < tol {
@@ -238,8 +235,17 @@ impl Marcher {
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
                 }
-                // Rays inside objects run the cell's other tape.
-                let key = (cell as *const Cell as usize) << 1 | class;
+                // Rays inside objects run the cell's other tape, and rays in a partial cell
+                // its rest, having met its pieces.
+                let tape = match (r.interior, &cell.partial) {
+                    (false, Some(partial)) => {
+                        (st.near, st.first) = meet(&partial.pieces, p - cell.origin, r.d);
+                        self.instructions += partial.pieces.len() as u64;
+                        PARTIAL
+                    }
+                    _ => class,
+                };
+                let key = (cell as *const Cell as usize) << 2 | tape;
                 self.queue.push((key, i));
             }
             // Rays mostly stay in their cell from one step to the next, so the queue comes
@@ -249,9 +255,10 @@ impl Marcher {
             let queue = std::mem::take(&mut self.queue);
             for group in queue.chunk_by(|a, b| a.0 == b.0) {
                 let cell = at[group[0].1 as usize].expect("located above");
-                let interior = rays[group[0].1 as usize].interior;
-                let tape = match (interior, &cell.interior) {
-                    (true, Some(t)) => t,
+                let (partial, interior) = (group[0].0 & 3 == PARTIAL, group[0].0 & 3 == 1);
+                let tape = match (interior, &cell.interior, &cell.partial) {
+                    (true, Some(t), _) => t,
+                    (false, _, Some(part)) if partial => &part.rest,
                     _ => &cell.scene,
                 };
                 self.regs.fit(tape);
@@ -275,6 +282,8 @@ impl Marcher {
                             // NaN from a user's field ends the ray like a ray that ran out.
                             hits[k] = Hit::OutOfSteps;
                             continue;
+                        } else if partial {
+                            partial_step(st, d, near, st.exit(cells, cell, st.p, r.d), cell, r.tmax)
                         } else if let Some(back) = unrelax(st, d.min(st.holds)) {
                             back
                         } else if d < st.tol && near >= 0.0 {
@@ -318,7 +327,7 @@ impl Marcher {
 /// linearly at rate `m`, the spheres would touch at a step of `2 / (1 - m)` times it.
 fn unrelax(st: &mut State, d: f64) -> Option<Step> {
     let (radius, step) = (st.radius, st.step);
-    (st.radius, st.step) = (0.0, 0.0);
+    (st.radius, st.step, st.from) = (0.0, 0.0, 0);
     if !st.relax || step <= 0.0 {
         return None;
     }
@@ -329,6 +338,68 @@ fn unrelax(st: &mut State, d: f64) -> Option<Step> {
     let m = ((d - radius) / step).clamp(-1.0, 1.0);
     st.omega = (SAFETY * 2.0 / (1.0 - m)).clamp(1.0, OMEGA_MAX);
     None
+}
+
+/// The nearest of `pieces` at `p` (local to their cell) and the first the ray along `d`
+/// meets, each as (distance or `t`, object).
+fn meet(pieces: &[Piece], p: DVec4, d: DVec4) -> ((f64, f64), (f64, f64)) {
+    let (p, d) = (p.to_array(), d.to_array());
+    let (mut near, mut first) = ((f64::INFINITY, 0.0), (f64::INFINITY, 0.0));
+    for piece in pieces {
+        let at = piece.form.value(p);
+        if at < near.0 {
+            near = (at, piece.object);
+        }
+        match piece.form.first(p, d) {
+            Some(t) if t < first.0 => first = (t, piece.object),
+            _ => {}
+        }
+    }
+    (near, first)
+}
+
+/// An object index from a piece's (-1, none, for the cut bound of what is far).
+fn object(o: f64) -> usize {
+    o.max(0.0) as usize
+}
+
+/// The step in a partial cell, where the rest's tape gave `d` and nearest object `near`
+/// and the pieces were met already (`State::near`, `first`), `exit` from the cell's far
+/// side. The pieces hold only in the cell and are met exactly up to its side; the rest's
+/// sphere covers the rest, and a relaxed step is checked on it at the next point if that is
+/// still in the cell (the pieces being clear up to there), and on the whole distance if not.
+fn partial_step(st: &mut State, d: f64, near: f32, exit: f64, cell: &Cell, tmax: f64) -> Step {
+    let here = cell as *const Cell as usize;
+    let (pieces, first) = (st.near, st.first);
+    let check = if st.from == here { d } else { d.min(pieces.0) };
+    if let Some(back) = unrelax(st, check.min(st.holds)) {
+        back
+    } else if pieces.0 < st.tol {
+        Step::Hit {
+            t: st.t,
+            object: object(pieces.1),
+        }
+    } else if d < st.tol && near >= 0.0 {
+        Step::Hit {
+            t: st.t,
+            object: near as usize,
+        }
+    } else if first.0 <= d.min(exit) {
+        Step::Hit {
+            t: st.t + first.0,
+            object: object(first.1),
+        }
+    } else {
+        let mut step = (st.omega * d).min(first.0);
+        if st.t + step >= tmax {
+            step = d;
+        }
+        if step >= exit {
+            step = past(exit, cell);
+        }
+        (st.radius, st.step, st.from) = (d, step, here);
+        Step::Advance(step)
+    }
 }
 
 /// A step to `exit` and just past it, into the next cell.

@@ -14,7 +14,7 @@
 //! Points outside the cube use the whole scene in coordinates local to its centre.
 
 use super::Tape;
-use crate::ir::exact::{Piece, pieces};
+use crate::ir::exact::{Piece, partition, pieces};
 use crate::ir::interval::{I, Intervals};
 use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
@@ -72,6 +72,9 @@ pub struct Cell {
     /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a
     /// hypersphere alone): rays meet it exactly.
     pub exact: Option<Vec<Piece>>,
+    /// Where the distance is not, but some objects' are: rays outside objects meet those
+    /// exactly and step on the others alone.
+    pub partial: Option<Partial>,
     /// The pruned graph, for the object tapes and the children.
     graph: Pruned,
     needs: Needs,
@@ -81,6 +84,15 @@ pub struct Cell {
     /// The 16 children, each built when a ray first reaches it; none when the cell is not
     /// split.
     children: Box<[OnceLock<Cell>]>,
+}
+
+/// A cell's distance as a few planes and spheres met exactly (`pieces`, which hold only in
+/// the cell) and the tape of the other objects (`rest`: distance and nearest object). A ray
+/// grazing a floor next to a box steps on the box's distance, not on its height over the
+/// floor.
+pub struct Partial {
+    pub pieces: Vec<Piece>,
+    pub rest: Tape,
 }
 
 /// The tree of one frame's cells, and what lies outside its cube.
@@ -446,6 +458,22 @@ fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
     (t0 <= t1).then_some(t0)
 }
 
+/// The cell's distance split into pieces met exactly and a tape of the rest, where it has
+/// both.
+fn partial(pr: &Pruned, place: Place, needs: Needs) -> Option<Partial> {
+    let (pieces, rest) = partition(&pr.graph, pr.roots[0], pr.roots[1])?;
+    let mut graph = pr.graph.clone();
+    let (d, n) = nearest(&mut graph, &rest);
+    let rest = Pruned {
+        graph,
+        roots: vec![d, n],
+        bounds: vec![],
+    };
+    let (precise, roots) = place.precise(&rest, needs.epsilon);
+    let tape = Tape::compile("rest", precise.as_ref().unwrap_or(&rest.graph), &roots);
+    Some(Partial { pieces, rest: tape })
+}
+
 impl Cell {
     /// The cell at corner `lo` with edge `size`, pruned from `parent` (whose local origin is
     /// `parent_origin`), local to `origin`.
@@ -472,6 +500,10 @@ impl Cell {
         let interior = (needs.interior).then(|| Tape::compile("interior", tapes, &roots[2..4]));
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
         let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
+        let partial = exact
+            .is_none()
+            .then(|| partial(&pr, place, needs))
+            .flatten();
         let len = scene.code.len() + interior.as_ref().map_or(0, |t| t.code.len());
         // A cell with no surface in it is crossed in one jump and never split. Others split
         // while that still shortens the tapes (where two surfaces meet, no subdivision
@@ -498,6 +530,7 @@ impl Cell {
             reach,
             lower,
             exact,
+            partial,
             graph: pr,
             needs,
             depth,
