@@ -584,6 +584,7 @@ fn pruned_cells_agree_with_the_whole_tape() {
     use hyperslice::render::frame::{Features, FrameScene};
     let mut rng = Pcg64Mcg::seed_from_u64(12);
     let (mut checked, mut pruned, mut cuts) = (0usize, 0usize, 0usize);
+    let mut partial_points = 0usize;
     for file in scene_files() {
         let scene = compile_file(&file);
         let compiled = hyperslice::compile::Compiled::new(&scene);
@@ -603,47 +604,64 @@ fn pruned_cells_agree_with_the_whole_tape() {
                 );
                 points.extend((0..40).map(|k| cam + d * (k as f64 * 0.25)));
             }
-            for p in points {
+            'point: for p in points {
                 let cell = fs.cells.find(p);
                 let whole = vm::eval_point(&fs.scene, &mut one, to32(p.to_array()), [0.0; 4], 0.0);
                 let local = (p - cell.origin).as_vec4().to_array();
                 let mut part = vm::eval_point(&cell.scene, &mut one, local, [0.0; 4], 0.0);
-                if let Some(pieces) = &cell.exact {
-                    let at = (p - cell.origin).to_array();
-                    let (d, o) = (pieces.iter())
+                let at = (p - cell.origin).to_array();
+                let nearest = |pieces: &[hyperslice::ir::exact::Piece]| {
+                    (pieces.iter())
                         .map(|l| (l.form.value(at), l.object))
-                        .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a });
+                        .fold((f64::INFINITY, 0.0), |a, b| if b.0 < a.0 { b } else { a })
+                };
+                if let Some(pieces) = &cell.exact {
+                    let (d, o) = nearest(pieces);
                     part = vec![d as f32, o as f32];
                 }
-                let (a, b) = (whole[0] as f64, part[0] as f64);
-                let tol = 2e-5 * (1.0 + a.abs() + p.abs().max_element());
-                if !cell.size.is_finite() {
-                    // Outside the cells' cube only the unbounded objects are left: the
-                    // distance can only grow (the marcher stops steps at the cube).
-                    assert!(b >= a - tol, "{}: {b} outside, {a} whole", file.display());
-                    continue;
+                let mut parts = vec![part];
+                // A partial cell: its pieces and the rest's tape, together, must agree too.
+                if let Some(partial) = &cell.partial {
+                    let (d, o) = nearest(&partial.pieces);
+                    let rest = vm::eval_point(&partial.rest, &mut one, local, [0.0; 4], 0.0);
+                    parts.push(if (d as f32) < rest[0] {
+                        vec![d as f32, o as f32]
+                    } else {
+                        rest
+                    });
+                    partial_points += 1;
                 }
-                // Beyond the cell's reach its tapes give a lower bound, itself past the reach.
-                let cut = (a - b).abs() > tol && b <= a + tol && b >= cell.reach - tol;
-                cuts += cut as usize;
-                assert!(
-                    (a - b).abs() <= tol || (a.is_infinite() && a == b) || cut,
-                    "{} t={t}: distance {b} in the cell at {:?} (edge {}), {a} whole, at {p:?}",
-                    file.display(),
-                    cell.lo,
-                    cell.size
-                );
-                if whole[1] != part[1] && part[1] >= 0.0 && b < cell.reach {
-                    // A tie: the object the cell names is as near as the nearest.
-                    let o = &fs.objects[part[1] as usize].distance;
-                    let d = vm::eval_point(o, &mut one, to32(p.to_array()), [0.0; 4], 0.0)[0];
+                let tol = 2e-5 * (1.0 + (whole[0] as f64).abs() + p.abs().max_element());
+                for part in parts {
+                    let (a, b) = (whole[0] as f64, part[0] as f64);
+                    if !cell.size.is_finite() {
+                        // Outside the cells' cube only the unbounded objects are left: the
+                        // distance can only grow (the marcher stops steps at the cube).
+                        assert!(b >= a - tol, "{}: {b} outside, {a} whole", file.display());
+                        continue 'point;
+                    }
+                    // Beyond the cell's reach its tapes give a lower bound, itself past the reach.
+                    let cut = (a - b).abs() > tol && b <= a + tol && b >= cell.reach - tol;
+                    cuts += cut as usize;
                     assert!(
-                        ((d - whole[0]) as f64).abs() <= tol,
-                        "{} t={t}: nearest {} in the cell, {} whole, at {p:?}",
+                        (a - b).abs() <= tol || (a.is_infinite() && a == b) || cut,
+                        "{} t={t}: distance {b} in the cell at {:?} (edge {}), {a} whole, at {p:?}",
                         file.display(),
-                        part[1],
-                        whole[1]
+                        cell.lo,
+                        cell.size
                     );
+                    if whole[1] != part[1] && part[1] >= 0.0 && b < cell.reach {
+                        // A tie: the object the cell names is as near as the nearest.
+                        let o = &fs.objects[part[1] as usize].distance;
+                        let d = vm::eval_point(o, &mut one, to32(p.to_array()), [0.0; 4], 0.0)[0];
+                        assert!(
+                            ((d - whole[0]) as f64).abs() <= tol,
+                            "{} t={t}: nearest {} in the cell, {} whole, at {p:?}",
+                            file.display(),
+                            part[1],
+                            whole[1]
+                        );
+                    }
                 }
                 if let (Some(wi), Some(ci)) = (&fs.interior, &cell.interior) {
                     let a = vm::eval_point(wi, &mut one, to32(p.to_array()), [0.0; 4], 0.0)[0];
@@ -665,10 +683,14 @@ fn pruned_cells_agree_with_the_whole_tape() {
         pruned * 4 > checked,
         "only {pruned} of {checked} points in pruned cells"
     );
-    // And at cells that cut far objects to their bounds.
+    // And at cells that cut far objects to their bounds, and partial ones.
     assert!(
         cuts * 50 > checked,
         "only {cuts} of {checked} points where a cell cut"
+    );
+    assert!(
+        partial_points * 10 > checked,
+        "only {partial_points} of {checked} points in partial cells"
     );
 }
 

@@ -114,10 +114,13 @@ pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
     (out.len() <= MAX_PIECES).then_some(out)
 }
 
+/// Objects of a running min, as (object index, distance).
+pub type Members = Vec<(usize, Id)>;
+
 /// The scene's distance `dist` with nearest object `near`, where it is a running min over
 /// objects some of which are a few planes and spheres: their pieces, and the other objects
 /// (object index, distance). None unless both kinds are there.
-pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Vec<(usize, Id)>)> {
+pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
     let (mut exact, mut rest) = (vec![], vec![]);
     let (mut d, mut n) = (dist, near);
     loop {

@@ -92,7 +92,7 @@ impl State {
     fn exit(&self, cells: &Cells, cell: &Cell, p: DVec4, d: DVec4) -> f64 {
         if !cells.is_outside(cell) {
             cell.exit(p, d)
-        } else if self.t < self.enter {
+        } else if self.t <= self.enter {
             self.enter - self.t
         } else {
             f64::INFINITY

@@ -11,7 +11,8 @@
 //! their local coordinates (`PRECISE_EDGE`), and their tapes are compiled from forms without
 //! the cancellation of large constants (`ir::precise`), so a hypersphere of radius 1e5 or a
 //! scene far from the origin is met to the epsilon, not to the rounding of its size.
-//! Points outside the cube use the whole scene in coordinates local to its centre.
+//! Points outside the cube use the unbounded objects only (the others lie inside it), in
+//! coordinates local to its centre, and a ray there drops those it provably never meets.
 
 use super::Tape;
 use crate::ir::exact::{Piece, partition, pieces};
@@ -148,6 +149,7 @@ impl Outside {
 
     /// The cell of the unbounded objects in `keep` (bit `i`: `unbounded[i]`).
     fn keeping(&self, keep: u64) -> &Cell {
+        // The last slot, every object, is `all` itself.
         match self.subsets.get(keep as usize) {
             Some(cell) if keep as usize + 1 < self.subsets.len() => cell.get_or_init(|| {
                 let kept: Vec<(usize, Id)> = (self.unbounded.iter().enumerate())
@@ -388,8 +390,10 @@ impl Cells {
     pub fn enter(&self, o: DVec4, d: DVec4) -> f64 {
         let hi = self.root.lo + DVec4::splat(self.root.size);
         match entry(o, d, self.root.lo, hi) {
-            Some(t) if t > 0.0 => t,
-            _ => f64::INFINITY,
+            // A ray from the cube's high faces, which belong to the cells beyond, enters at 0.
+            Some(_) if self.root.contains(o) => f64::INFINITY,
+            Some(t) => t,
+            None => f64::INFINITY,
         }
     }
 
