@@ -79,9 +79,13 @@ struct State {
     tol: f64,
     /// How far from `p` its cell's distances hold (`Cells::gap`).
     holds: f64,
-    /// In a partial cell: the nearest piece at `p` and the first the ray meets (`meet`).
+    /// The partial cell whose pieces the ray has met, by address (0: none), the nearest
+    /// piece where it entered (infinity after that), the `t` of the first it meets and the
+    /// `t` at which it leaves the cell.
+    partial: usize,
     near: (f64, f64),
     first: (f64, f64),
+    leave: f64,
     /// The partial cell the pending step was taken in, by address (0: none).
     from: usize,
 }
@@ -239,8 +243,19 @@ impl Marcher {
                 // its rest, having met its pieces.
                 let tape = match (r.interior, &cell.partial) {
                     (false, Some(partial)) => {
-                        (st.near, st.first) = meet(&partial.pieces, p - cell.origin, r.d);
-                        self.instructions += partial.pieces.len() as u64;
+                        // Where the ray meets the pieces is known once it is in the cell;
+                        // how near they are matters only where it enters (a later step
+                        // towards one ends at its root).
+                        let here = cell as *const Cell as usize;
+                        if st.partial != here {
+                            let (near, first) = meet(&partial.pieces, p - cell.origin, r.d);
+                            (st.near, st.first) = (near, (st.t + first.0, first.1));
+                            st.leave = st.t + st.exit(cells, cell, p, r.d);
+                            st.partial = here;
+                            self.instructions += partial.pieces.len() as u64;
+                        } else {
+                            st.near.0 = f64::INFINITY;
+                        }
                         PARTIAL
                     }
                     _ => class,
@@ -283,7 +298,7 @@ impl Marcher {
                             hits[k] = Hit::OutOfSteps;
                             continue;
                         } else if partial {
-                            partial_step(st, d, near, st.exit(cells, cell, st.p, r.d), cell, r.tmax)
+                            partial_step(st, d, near, cell, r.tmax)
                         } else if let Some(back) = unrelax(st, d.min(st.holds)) {
                             back
                         } else if d < st.tol && near >= 0.0 {
@@ -364,13 +379,14 @@ fn object(o: f64) -> usize {
 }
 
 /// The step in a partial cell, where the rest's tape gave `d` and nearest object `near`
-/// and the pieces were met already (`State::near`, `first`), `exit` from the cell's far
-/// side. The pieces hold only in the cell and are met exactly up to its side; the rest's
+/// and the pieces and the cell's far side were met already (`State::partial`). The
+/// pieces hold only in the cell and are met exactly up to its side; the rest's
 /// sphere covers the rest, and a relaxed step is checked on it at the next point if that is
 /// still in the cell (the pieces being clear up to there), and on the whole distance if not.
-fn partial_step(st: &mut State, d: f64, near: f32, exit: f64, cell: &Cell, tmax: f64) -> Step {
+fn partial_step(st: &mut State, d: f64, near: f32, cell: &Cell, tmax: f64) -> Step {
     let here = cell as *const Cell as usize;
-    let (pieces, first) = (st.near, st.first);
+    let (pieces, first) = (st.near, (st.first.0 - st.t, st.first.1));
+    let exit = (st.leave - st.t).max(0.0);
     let check = if st.from == here { d } else { d.min(pieces.0) };
     if let Some(back) = unrelax(st, check.min(st.holds)) {
         back
