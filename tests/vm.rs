@@ -621,7 +621,7 @@ fn pruned_cells_agree_with_the_whole_tape() {
                 }
                 let mut parts = vec![part];
                 // A partial cell: its pieces and the rest's tape, together, must agree too.
-                if let Some(partial) = &cell.partial {
+                if let Some(partial) = cell.partial() {
                     let (d, o) = nearest(&partial.pieces);
                     let rest = vm::eval_point(&partial.rest, &mut one, local, [0.0; 4], 0.0);
                     parts.push(if (d as f32) < rest[0] {

@@ -241,7 +241,7 @@ impl Marcher {
                 }
                 // Rays inside objects run the cell's other tape, and rays in a partial cell
                 // its rest, having met its pieces.
-                let tape = match (r.interior, &cell.partial) {
+                let tape = match (r.interior, cell.partial()) {
                     (false, Some(partial)) => {
                         // Where the ray meets the pieces is known once it is in the cell;
                         // how near they are matters only where it enters (a later step
@@ -271,7 +271,7 @@ impl Marcher {
             for group in queue.chunk_by(|a, b| a.0 == b.0) {
                 let cell = at[group[0].1 as usize].expect("located above");
                 let (partial, interior) = (group[0].0 & 3 == PARTIAL, group[0].0 & 3 == 1);
-                let tape = match (interior, &cell.interior, &cell.partial) {
+                let tape = match (interior, &cell.interior, cell.partial()) {
                     (true, Some(t), _) => t,
                     (false, _, Some(part)) if partial => &part.rest,
                     _ => &cell.scene,

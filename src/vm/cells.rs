@@ -74,8 +74,9 @@ pub struct Cell {
     /// hypersphere alone): rays meet it exactly.
     pub exact: Option<Vec<Piece>>,
     /// Where the distance is not, but some objects' are: rays outside objects meet those
-    /// exactly and step on the others alone.
-    pub partial: Option<Partial>,
+    /// exactly and step on the others alone (`partial`, built when a ray first needs it:
+    /// rays march only in cells without children).
+    partial: OnceLock<Option<Partial>>,
     /// The pruned graph, for the object tapes and the children.
     graph: Pruned,
     needs: Needs,
@@ -504,10 +505,6 @@ impl Cell {
         let interior = (needs.interior).then(|| Tape::compile("interior", tapes, &roots[2..4]));
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
         let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
-        let partial = exact
-            .is_none()
-            .then(|| partial(&pr, place, needs))
-            .flatten();
         let len = scene.code.len() + interior.as_ref().map_or(0, |t| t.code.len());
         // A cell with no surface in it is crossed in one jump and never split. Others split
         // while that still shortens the tapes (where two surfaces meet, no subdivision
@@ -534,7 +531,7 @@ impl Cell {
             reach,
             lower,
             exact,
-            partial,
+            partial: OnceLock::new(),
             graph: pr,
             needs,
             depth,
@@ -545,15 +542,28 @@ impl Cell {
         }
     }
 
+    /// The cell's pieces and the tape of the rest, where it is partial (not exact).
+    pub fn partial(&self) -> Option<&Partial> {
+        (self.partial)
+            .get_or_init(|| {
+                let partial = || partial(&self.graph, self.place(), self.needs);
+                self.exact.is_none().then(partial).flatten()
+            })
+            .as_ref()
+    }
+
+    fn place(&self) -> Place {
+        Place {
+            lo: self.lo,
+            size: self.size,
+            origin: self.origin,
+        }
+    }
+
     /// Each object's distance in the cell, local to its origin.
     pub fn objects(&self) -> &[Tape] {
         self.objects.get_or_init(|| {
-            let place = Place {
-                lo: self.lo,
-                size: self.size,
-                origin: self.origin,
-            };
-            let (precise, roots) = place.precise(&self.graph, self.needs.epsilon);
+            let (precise, roots) = self.place().precise(&self.graph, self.needs.epsilon);
             let tapes = precise.as_ref().unwrap_or(&self.graph.graph);
             (roots[4..].iter())
                 .map(|r| Tape::compile("object", tapes, &[*r]))
