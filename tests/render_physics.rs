@@ -652,6 +652,83 @@ fn rays_grazing_a_floor_beside_a_box_meet_the_floor_in_few_steps() {
 }
 
 #[test]
+fn random_rays_beside_a_floor_a_sphere_and_a_box_meet_the_first_surface() {
+    // Cells near the turned box are partial (the floor and the sphere met exactly, the box
+    // on its tape): 20,000 rays falling steeply past them, from random points, must meet
+    // the first of the floor and the sphere where the formulas say, not through the box, or
+    // the box before both.
+    use hyperslice::ir::eval::{Reference, vars};
+    use rand::{Rng, SeedableRng};
+    let src = "render { size = 8 x 6 }
+               camera { from = [0, 0.4, -3, 0] fov = 60deg }
+               object block { shape = hyperbox([0.4, 0.4, 0.4, 0.4]) |> rotate(xz, 30deg) |> translate([0.3, 0.43, 0.5, 0]) material = diffuse() }
+               object ball { shape = hypersphere(0.3) |> translate([-0.6, 0.3, 0.2, 0]) material = diffuse() }
+               object floor { shape = halfspace(offset: 0) material = diffuse() }";
+    let (c, r) = (DVec4::new(-0.6, 0.3, 0.2, 0.0), 0.3);
+    let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(7);
+    let mut rays = vec![];
+    while rays.len() < 20_000 {
+        let mut u = || rng.random::<f64>();
+        let o = DVec4::new(
+            2.0 * u() - 0.7,
+            0.01 + 0.3 * u(),
+            2.0 * u() - 0.5,
+            0.6 * u() - 0.3,
+        );
+        let d = DVec4::new(0.4 * u() - 0.2, -1.0, 0.4 * u() - 0.2, 0.2 * u() - 0.1).normalize();
+        if (o - c).length() > r + 0.01 {
+            let (tmax, interior) = (f64::INFINITY, false);
+            rays.push(Ray {
+                o,
+                d,
+                tmax,
+                interior,
+            });
+        }
+    }
+    let m = march_rays(src, |_| rays);
+    let ir = &m.compiled.ir;
+    let block = ir.objects[0].distance;
+    let mut reference = Reference::new(&ir.graph, &[block]);
+    // Whether the ray passes through the box before `t` (sampled finer than the box).
+    let mut crosses_block = |ray: &Ray, t: f64| {
+        (0..(t / 0.01) as usize).any(|k| {
+            reference.run(&vars(
+                (ray.o + ray.d * (k as f64 * 0.01)).to_array(),
+                [0.0; 4],
+                0.0,
+            ));
+            reference.value(block) < -1e-3
+        })
+    };
+    let mut bad = 0;
+    for (ray, hit) in m.rays.iter().zip(&m.hits) {
+        let plane = -ray.o.y / ray.d.y;
+        let u = ray.o - c;
+        let (b, disc) = (u.dot(ray.d), u.dot(ray.d).powi(2) - u.dot(u) + r * r);
+        let sphere = match -b - disc.max(0.0).sqrt() {
+            t if disc >= 0.0 && t >= 0.0 => t,
+            _ => f64::INFINITY,
+        };
+        let ok = match *hit {
+            Hit::Surface { t, object: 2 } => {
+                ((t - plane) * ray.d.y).abs() < 2e-4 && t <= sphere + 1e-3 && !crosses_block(ray, t)
+            }
+            Hit::Surface { t, object: 1 } => {
+                (t - sphere).abs() < 1e-3 && t <= plane + 1e-3 && !crosses_block(ray, t)
+            }
+            Hit::Surface { t, object: 0 } => t <= plane.min(sphere) + 1e-3,
+            _ => false,
+        };
+        if !ok && bad < 5 {
+            eprintln!("{ray:?}: {hit:?}, the floor at {plane}, the sphere at {sphere}");
+        }
+        bad += !ok as usize;
+    }
+    assert_eq!(bad, 0, "{bad} of {} rays", m.rays.len());
+}
+
+#[test]
 fn rays_from_a_floor_beyond_the_cells_reach_a_lamp() {
     // Shadow rays from a floor far beyond the cube of cells, to a lamp inside it. Rays out
     // there drop the unbounded objects they provably never meet: a first version dropped

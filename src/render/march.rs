@@ -347,7 +347,8 @@ fn unrelax(st: &mut State, d: f64) -> Option<Step> {
         return None;
     }
     if d < 0.0 || d + radius < step {
-        st.omega = 1.0;
+        // Back before where a partial cell's pieces were met, perhaps: meet them again.
+        (st.omega, st.partial) = (1.0, 0);
         return Some(Step::Advance(radius - step));
     }
     let m = ((d - radius) / step).clamp(-1.0, 1.0);
