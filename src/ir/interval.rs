@@ -4,7 +4,6 @@
 
 use super::{Bin, Graph, Id, Node, Un, Var};
 use crate::math::kernel as k;
-use rustc_hash::FxHashMap;
 
 /// A closed interval `lo..=hi`; a NaN bound means nothing is known.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -150,8 +149,11 @@ fn bin(op: Bin, a: I, b: I) -> I {
 #[derive(Clone, Debug, Default)]
 pub struct Intervals {
     vals: Vec<I>,
-    /// The outputs of tuple nodes, read through `Proj`.
-    tuples: FxHashMap<u32, Vec<I>>,
+    /// Where each node's outputs start in `outs` when it is a tuple bounded here (read
+    /// through `Proj`), `u32::MAX` otherwise: flat, since a union of a thousand objects is a
+    /// thousand min-with-id tuples and every cell bounds them.
+    start: Vec<u32>,
+    outs: Vec<I>,
 }
 
 impl Intervals {
@@ -164,13 +166,21 @@ impl Intervals {
 
     /// Bound the nodes added to `g` since the last call.
     pub fn extend(&mut self, g: &Graph, vars: &impl Fn(Var) -> I, live: Option<&[bool]>) {
+        self.vals.reserve(g.len() - self.vals.len());
+        self.start.reserve(g.len() - self.start.len());
         for i in self.vals.len()..g.len() {
+            let outs = self.outs.len();
             let v = if live.is_none_or(|l| l[i]) {
-                self.node(i as u32, g.get(Id(i as u32)), vars)
+                self.node(g.get(Id(i as u32)), vars)
             } else {
                 I::ALL
             };
             self.vals.push(v);
+            self.start.push(if self.outs.len() > outs {
+                outs as u32
+            } else {
+                u32::MAX
+            });
         }
     }
 
@@ -178,7 +188,8 @@ impl Intervals {
         self.vals[id.0 as usize]
     }
 
-    fn node(&mut self, id: u32, n: Node, vars: &impl Fn(Var) -> I) -> I {
+    /// The bounds of scalar node `n`; a tuple's go to `outs`, and it gets `I::ALL`.
+    fn node(&mut self, n: Node, vars: &impl Fn(Var) -> I) -> I {
         let g = |x: Id| self.vals[x.0 as usize];
         let v4 = |v: [Id; 4]| v.map(g);
         let row = |r: &[super::K]| -> [f64; 9] {
@@ -194,7 +205,12 @@ impl Intervals {
             Node::Un(op, a) => return un(op, g(a)),
             Node::Bin(op, a, b) => return bin(op, g(a), g(b)),
             Node::Proj(t, i) => {
-                return self.tuples.get(&t.0).map_or(I::ALL, |out| out[i as usize]);
+                let start = self.start[t.0 as usize];
+                return if start == u32::MAX {
+                    I::ALL
+                } else {
+                    self.outs[start as usize + i as usize]
+                };
             }
             Node::Select(c, a, b) => {
                 let c = g(c);
@@ -221,9 +237,9 @@ impl Intervals {
             }
             Node::BoxDist(v, r) => {
                 let r = row(&r);
-                let q: Vec<I> = (0..4)
-                    .map(|i| g(v[i]).add(I::point(r[i])).abs().add(I::point(-r[4 + i])))
-                    .collect();
+                let q: [I; 4] = std::array::from_fn(|i| {
+                    g(v[i]).add(I::point(r[i])).abs().add(I::point(-r[4 + i]))
+                });
                 let o = q.iter().fold(I::point(0.0), |acc, x| {
                     acc.add(x.max(I::point(0.0)).square())
                 });
@@ -244,18 +260,11 @@ impl Intervals {
             Node::D4(v) => {
                 let v = v4(v);
                 if v.iter().all(|x| x.is_point()) {
-                    k::d4(v.map(|x| x.lo))
-                        .iter()
-                        .map(|x| I::point(*x))
-                        .collect()
+                    k::d4(v.map(|x| x.lo)).map(I::point).to_vec()
                 } else {
                     // Offsets stay inside the Voronoi cell (|x_i| <= 1); points are near.
-                    let mut out = vec![I::new(-1.0, 1.0); 4];
-                    out.extend(
-                        v.iter()
-                            .map(|x| I::new(x.lo.floor() - 1.0, x.hi.ceil() + 1.0)),
-                    );
-                    out
+                    let near = v.map(|x| I::new(x.lo.floor() - 1.0, x.hi.ceil() + 1.0));
+                    [[I::new(-1.0, 1.0); 4], near].concat()
                 }
             }
             Node::Rep(a, l) => {
@@ -277,10 +286,11 @@ impl Intervals {
                     Some(false) => best_id,
                     None => best_id.union(I::point(id.get())),
                 };
-                vec![best.min(d), id]
+                self.outs.extend([best.min(d), id]);
+                return I::ALL;
             }
         };
-        self.tuples.insert(id, tuple);
+        self.outs.extend(tuple);
         I::ALL
     }
 }

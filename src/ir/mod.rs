@@ -190,6 +190,15 @@ impl Graph {
         Graph::default()
     }
 
+    /// An empty graph with room for `n` nodes: interning grows its index by rehashing, which
+    /// cost pruning half its time before its graphs were sized up front.
+    pub fn with_capacity(n: usize) -> Graph {
+        Graph {
+            nodes: Vec::with_capacity(n),
+            index: FxHashMap::with_capacity_and_hasher(n, Default::default()),
+        }
+    }
+
     /// The id of `node`, adding it if it is new.
     pub fn intern(&mut self, node: Node) -> Id {
         let node = match node {
@@ -249,7 +258,10 @@ impl Graph {
     /// hashing. Nodes interned into it later are not shared with these.
     pub fn compact(&self, roots: &[Id]) -> (Graph, Vec<Id>) {
         let live = self.live(roots);
-        let mut g = Graph::new();
+        let mut g = Graph {
+            nodes: Vec::with_capacity(live.iter().filter(|l| **l).count()),
+            index: FxHashMap::default(),
+        };
         let mut map = vec![Id(u32::MAX); self.len()];
         for i in (0..self.len()).filter(|i| live[*i]) {
             map[i] = Id(g.nodes.len() as u32);

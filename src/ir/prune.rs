@@ -49,7 +49,12 @@ enum Plan {
 pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4], reach: f64) -> Pruned {
     let live = g.live(roots);
     let plan = plan(g, roots, &live, region, shift, reach);
-    let mut out = Graph::new();
+    // Each kept node adds about one (a shifted variable, two).
+    let kept = plan
+        .iter()
+        .filter(|p| !matches!(p, Plan::Dead | Plan::Pair(_)))
+        .count();
+    let mut out = Graph::with_capacity(kept + 2 * Var::POINT.len());
     // The point variables first: they get the smallest ids, so `x + c` keeps the constant
     // second, the form the optimiser folds into offsets.
     for v in Var::POINT {

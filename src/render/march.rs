@@ -204,14 +204,18 @@ impl Marcher {
                 };
                 let tol = cell.epsilon(p, limits.epsilon, r.interior);
                 st.tol = tol;
-                // Nothing in the cell: cross it, or go as far as the bound allows (it holds
-                // at `p`, so a sphere step of that length is safe wherever it ends; outside
-                // the cube, only as far as the cube).
+                // Nothing in the cell: cross it, and a sphere step beyond, since the bound
+                // holds on the cell's sides too. Outside the cube it holds only at `p` (and
+                // only as far as the cube): go as far as the bound allows, or to the cube.
                 if cell.lower[class] > tol {
                     let lower = cell.lower[class].min(st.holds);
                     let step = unrelax(st, lower).unwrap_or_else(|| {
-                        let exit = past(st.exit(cells, cell, p, r.d), cell);
-                        Step::Advance(exit.max(lower))
+                        let exit = st.exit(cells, cell, p, r.d);
+                        Step::Advance(if cells.is_outside(cell) {
+                            past(exit, cell).max(lower)
+                        } else {
+                            past(exit, cell).max(exit + lower)
+                        })
                     });
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;

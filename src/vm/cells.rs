@@ -52,10 +52,22 @@ const LONG_LEN: usize = 64;
 /// hold none and are crossed in one jump.
 const REACH: f64 = 0.125;
 
+/// Laid out for the marcher: what locating a point and crossing an empty cell read comes
+/// first, in the cell's first cache line (each step into a new cell misses on it).
+#[repr(C, align(64))]
 pub struct Cell {
     /// The corner with the smallest coordinates, and the edge length.
     pub lo: DVec4,
     pub size: f64,
+    /// The 16 children, each built when a ray first reaches it; none when the cell is not
+    /// split.
+    children: Box<[OnceLock<Box<Cell>>]>,
+    /// Lower bounds over the cell of the scene's distance and the interior's (NaN: unknown).
+    pub lower: [f64; 2],
+    /// The scene distance as the smallest of a few planes and spheres in local coordinates,
+    /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a
+    /// hypersphere alone): rays meet it exactly.
+    pub exact: Option<Vec<Piece>>,
     /// Where the tapes' local coordinates are zero.
     pub origin: DVec4,
     /// Outputs: signed distance to the nearest visible object and its index (as `vm::Program`).
@@ -67,12 +79,6 @@ pub struct Cell {
     /// The tapes are exact where the distance is below this; above it they give a lower
     /// bound of it, itself at least this (`REACH`).
     pub reach: f64,
-    /// Lower bounds over the cell of the scene's distance and the interior's (NaN: unknown).
-    pub lower: [f64; 2],
-    /// The scene distance as the smallest of a few planes and spheres in local coordinates,
-    /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a
-    /// hypersphere alone): rays meet it exactly.
-    pub exact: Option<Vec<Piece>>,
     /// Where the distance is not, but some objects' are: rays outside objects meet those
     /// exactly and step on the others alone (`partial`, built when a ray first needs it:
     /// rays march only in cells without children).
@@ -83,9 +89,6 @@ pub struct Cell {
     depth: u32,
     /// Instructions in the tapes.
     len: usize,
-    /// The 16 children, each built when a ray first reaches it; none when the cell is not
-    /// split.
-    children: Box<[OnceLock<Cell>]>,
 }
 
 /// A cell's distance as a few planes and spheres met exactly (`pieces`, which hold only in
@@ -631,7 +634,7 @@ impl Cell {
             );
             let work = self.graph.graph.len() + kid.graph.graph.len();
             built.fetch_add(work as u64, Ordering::Relaxed);
-            kid
+            Box::new(kid)
         }))
     }
 }
