@@ -374,8 +374,8 @@ fn an_interrupted_render_resumes_to_the_same_bytes() {
     use std::time::{Duration, Instant};
     let dir = scene_dir();
     let d = dir.path();
-    // Long enough (two seconds here) that the interrupt lands mid-render: at 96 spp it
-    // took 0.6 s, and a faster marcher had it finish before the interrupt.
+    // Long enough (2 to 3 s on the 2-core development machine) that the interrupt lands
+    // mid-render: at 96 spp it took 0.6 s, and a faster marcher had it finish first.
     let args = [
         "render",
         "scene.4ds",

@@ -166,8 +166,8 @@ impl Intervals {
 
     /// Bound the nodes added to `g` since the last call.
     pub fn extend(&mut self, g: &Graph, vars: &impl Fn(Var) -> I, live: Option<&[bool]>) {
-        self.vals.reserve(g.len() - self.vals.len());
-        self.start.reserve(g.len() - self.start.len());
+        self.vals.reserve(g.len().saturating_sub(self.vals.len()));
+        self.start.reserve(g.len().saturating_sub(self.start.len()));
         for i in self.vals.len()..g.len() {
             let outs = self.outs.len();
             let v = if live.is_none_or(|l| l[i]) {

@@ -181,7 +181,7 @@ impl Marcher {
                         // have ended as a plain one (a relaxed step is checked at the next
                         // point): the proof starts there.
                         let clear = p - r.d * (st.step - st.radius).max(0.0);
-                        if cells.escapes(clear, r.d, &mut st.keep) {
+                        if cells.escapes(clear, r.d, r.interior, &mut st.keep) {
                             hits[k] = Hit::Beyond;
                             continue;
                         }
@@ -205,8 +205,10 @@ impl Marcher {
                 let tol = cell.epsilon(p, limits.epsilon, r.interior);
                 st.tol = tol;
                 // Nothing in the cell: cross it, and a sphere step beyond, since the bound
-                // holds on the cell's sides too. Outside the cube it holds only at `p` (and
-                // only as far as the cube): go as far as the bound allows, or to the cube.
+                // holds on the cell's sides too; short of the sphere by the tolerance, since
+                // a tight bound (a floor parallel to the cell) puts its edge on the surface,
+                // and the bound is rounded to nearest. Outside the cube it holds only at `p`
+                // (and only as far as the cube): go as far as the bound allows, or to the cube.
                 if cell.lower[class] > tol {
                     let lower = cell.lower[class].min(st.holds);
                     let step = unrelax(st, lower).unwrap_or_else(|| {
@@ -214,7 +216,7 @@ impl Marcher {
                         Step::Advance(if cells.is_outside(cell) {
                             past(exit, cell).max(lower)
                         } else {
-                            past(exit, cell).max(exit + lower)
+                            past(exit, cell).max(exit + lower - tol)
                         })
                     });
                     finish(st, &mut self.next, k, r, step, limits, hits);
@@ -232,7 +234,9 @@ impl Marcher {
                             t: st.t,
                             object: object(near.1),
                         }
-                    } else if first.0 <= exit {
+                    } else if first.0 <= past(exit, cell) {
+                        // Up to where the step past the side would land: a root on the
+                        // cell's side may round to just beyond it.
                         Step::Hit {
                             t: st.t + first.0,
                             object: object(first.1),
@@ -317,15 +321,17 @@ impl Marcher {
                             if st.t + step >= r.tmax {
                                 step = d;
                             }
-                            (st.radius, st.step) = (d, step);
-                            // Outside the cube the tape leaves out the objects inside it.
+                            // Outside the cube the tape leaves out the objects inside it:
+                            // go no further than into the cube, a step still checked at the
+                            // next point if it is longer than `d` (a tiling's spheres lie
+                            // outside the cube too).
                             if cells.is_outside(cell) {
                                 let exit = st.exit(cells, cell, st.p, r.d);
                                 if step >= exit {
                                     step = past(exit, cell);
-                                    (st.radius, st.step) = (0.0, 0.0);
                                 }
                             }
+                            (st.radius, st.step) = (d, step);
                             Step::Advance(step)
                         };
                         finish(st, &mut self.next, k, r, step, limits, hits);
@@ -405,7 +411,7 @@ fn partial_step(st: &mut State, d: f64, near: f32, cell: &Cell, tmax: f64) -> St
             t: st.t,
             object: near as usize,
         }
-    } else if first.0 <= d.min(exit) {
+    } else if first.0 <= d.min(past(exit, cell)) {
         Step::Hit {
             t: st.t + first.0,
             object: object(first.1),

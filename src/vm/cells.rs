@@ -52,8 +52,10 @@ const LONG_LEN: usize = 64;
 /// hold none and are crossed in one jump.
 const REACH: f64 = 0.125;
 
-/// Laid out for the marcher: what locating a point and crossing an empty cell read comes
-/// first, in the cell's first cache line (each step into a new cell misses on it).
+/// Laid out for the marcher: what locating a point reads (corner, edge, children) and the
+/// scene's lower bound come first, in the cell's first cache line (each step into a new
+/// cell misses on it); the interior's bound, the exact pieces and the origin follow in the
+/// second.
 #[repr(C, align(64))]
 pub struct Cell {
     /// The corner with the smallest coordinates, and the edge length.
@@ -403,10 +405,12 @@ impl Cells {
 
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
     /// of the bounded objects again, and no unbounded object's distance changes sign anywhere
-    /// in the box the rest of the ray spans. `keep` holds the unbounded objects the ray may
-    /// still meet (bit `i`: the `i`th); once the ray is past the box, those proven out of
-    /// its way leave it.
-    pub fn escapes(&self, p: DVec4, d: DVec4, keep: &mut u64) -> bool {
+    /// in the box the rest of the ray spans. For a ray outside objects (not `interior`) the
+    /// distances must be positive there: one negative all along means the ray has crossed
+    /// that surface (by a rounding, at a cell's side), and it meets it where it is. `keep`
+    /// holds the unbounded objects the ray may still meet (bit `i`: the `i`th); once the
+    /// ray is past the box, those proven out of its way leave it.
+    pub fn escapes(&self, p: DVec4, d: DVec4, interior: bool, keep: &mut u64) -> bool {
         let e = &self.escape;
         // A ray bound for the box cannot escape yet, and is left the intervals until it has
         // passed it: they cost a pass over the unbounded objects' graph, 14% of a tiling's
@@ -428,7 +432,12 @@ impl Cells {
             };
             let iv = Intervals::of(&e.graph, &vars, None);
             for (i, r) in e.roots.iter().enumerate() {
-                let clear = iv.get(*r).excludes_zero();
+                let x = iv.get(*r);
+                let clear = if interior {
+                    x.excludes_zero()
+                } else {
+                    x.lo > 0.0
+                };
                 match i {
                     0..64 if clear => *keep &= !(1 << i),
                     0..64 => {}
