@@ -194,6 +194,12 @@ impl Marcher {
                     }
                 }
                 at[k] = Some(cell);
+                // Where a partial cell's pieces were met holds while the ray stays in it: one
+                // back in a cell it left (the region outside the cube is not convex) meets
+                // them again.
+                if st.partial != cell as *const Cell as usize {
+                    st.partial = 0;
+                }
                 let class = r.interior as usize;
                 // Outside the cube, distances hold only as far as the cube: so far reach
                 // the spheres that check a relaxed step.
