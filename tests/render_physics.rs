@@ -448,6 +448,17 @@ struct Marched {
     compiled: Compiled,
 }
 
+/// Where `ray` meets the floor `y = 0`.
+fn floor_at(ray: &Ray) -> f64 {
+    -ray.o.y / ray.d.y
+}
+
+/// Whether a hit at `t` along `ray` lies within the epsilon of the floor `y = 0`, measured
+/// along its normal.
+fn on_the_floor(ray: &Ray, t: f64) -> bool {
+    ((t - floor_at(ray)) * ray.d.y).abs() < 2e-4
+}
+
 /// Rays of a scene's first frame (made from it by `rays`), marched through its cells.
 fn march_rays(src: &str, rays: impl FnOnce(&FrameScene) -> Vec<Ray>) -> Marched {
     let c = hyperslice::Compilation::from_source("rays.4ds", src);
@@ -605,11 +616,10 @@ fn grazing_rays_along_a_floor_past_a_custom_field() {
             balls += 1;
         }
         if let Hit::Surface { t, object: 1 } = *hit {
-            // Hits lie within the epsilon of the floor, measured along the normal.
-            let plane = -ray.o.y / ray.d.y;
             assert!(
-                ((t - plane) * ray.d.y).abs() < 2e-4,
-                "{ray:?} met the floor at {t}, the plane at {plane}"
+                on_the_floor(ray, t),
+                "{ray:?} met the floor at {t}, the plane at {}",
+                floor_at(ray)
             );
             floor += 1;
             grazing += (t > 500.0) as usize;
@@ -636,10 +646,10 @@ fn rays_grazing_a_floor_beside_a_box_meet_the_floor_in_few_steps() {
     for (ray, hit) in m.rays.iter().zip(&m.hits) {
         assert!(!matches!(hit, Hit::OutOfSteps), "{ray:?} ran out of steps");
         if let Hit::Surface { t, object: 1 } = *hit {
-            let plane = -ray.o.y / ray.d.y;
             assert!(
-                ((t - plane) * ray.d.y).abs() < 2e-4,
-                "{ray:?} met the floor at {t}, the plane at {plane}"
+                on_the_floor(ray, t),
+                "{ray:?} met the floor at {t}, the plane at {}",
+                floor_at(ray)
             );
             floor += 1;
         }
@@ -703,7 +713,7 @@ fn random_rays_beside_a_floor_a_sphere_and_a_box_meet_the_first_surface() {
     };
     let mut bad = 0;
     for (ray, hit) in m.rays.iter().zip(&m.hits) {
-        let plane = -ray.o.y / ray.d.y;
+        let plane = floor_at(ray);
         let u = ray.o - c;
         let (b, disc) = (u.dot(ray.d), u.dot(ray.d).powi(2) - u.dot(u) + r * r);
         let sphere = match -b - disc.max(0.0).sqrt() {
@@ -712,7 +722,7 @@ fn random_rays_beside_a_floor_a_sphere_and_a_box_meet_the_first_surface() {
         };
         let ok = match *hit {
             Hit::Surface { t, object: 2 } => {
-                ((t - plane) * ray.d.y).abs() < 2e-4 && t <= sphere + 1e-3 && !crosses_block(ray, t)
+                on_the_floor(ray, t) && t <= sphere + 1e-3 && !crosses_block(ray, t)
             }
             Hit::Surface { t, object: 1 } => {
                 (t - sphere).abs() < 1e-3 && t <= plane + 1e-3 && !crosses_block(ray, t)

@@ -107,11 +107,8 @@ const MAX_PIECES: usize = 8;
 /// The scene's distance `dist` with nearest object `near` as the smallest of a few pieces,
 /// when it is one.
 pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
-    let mut out = vec![];
-    pieces_at(g, dist, Err(near), &mut out)?;
-    // The running min starts at +infinity, which is no surface.
-    out.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
-    (out.len() <= MAX_PIECES).then_some(out)
+    let (exact, rest) = split(g, dist, near)?;
+    (rest.is_empty() && exact.len() <= MAX_PIECES).then_some(exact)
 }
 
 /// Objects of a running min, as (object index, distance).
@@ -121,65 +118,50 @@ pub type Members = Vec<(usize, Id)>;
 /// objects some of which are a few planes and spheres: their pieces, and the other objects
 /// (object index, distance). None unless both kinds are there.
 pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
-    let (mut exact, mut rest) = (vec![], vec![]);
-    let (mut d, mut n) = (dist, near);
-    loop {
-        let mut forms = vec![];
-        match (g.get(d), g.get(n)) {
-            (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => {
-                let Node::MinId(best, best_id, member, id) = g.get(t) else {
-                    return None;
-                };
-                match min_of_forms(g, member, false, 0, &mut forms) {
-                    Some(()) => exact.extend(forms.into_iter().map(|form| Piece {
-                        form,
-                        object: id.get(),
-                    })),
-                    None => rest.push((id.get() as usize, member)),
-                }
-                (d, n) = (best, best_id);
-            }
-            // Where the running min starts: +infinity, what the cut objects folded into, or
-            // the first object.
-            _ => {
-                let object = g.constant(n)?;
-                match min_of_forms(g, d, false, 0, &mut forms) {
-                    Some(()) => exact.extend(forms.into_iter().map(|form| Piece { form, object })),
-                    None if object >= 0.0 => rest.push((object as usize, d)),
-                    None => return None,
-                }
-                break;
-            }
-        }
-    }
-    exact.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
+    let (exact, rest) = split(g, dist, near)?;
     let surface = |p: &Piece| !matches!(p.form, Form::Plane { g, .. } if g == [0.0; 4]);
     (exact.iter().any(surface) && !rest.is_empty() && exact.len() <= MAX_PIECES)
         .then_some((exact, rest))
 }
 
-/// The pieces of `dist`, whose object is known (`Ok`) or read from the node `near` (`Err`).
-fn pieces_at(g: &Graph, dist: Id, near: Result<f64, Id>, out: &mut Vec<Piece>) -> Option<()> {
-    let object = near.or_else(|n| g.constant(n).ok_or(n));
-    match object {
-        Ok(object) => {
-            let mut flat = vec![];
-            min_of_forms(g, dist, false, 0, &mut flat)?;
-            out.extend(flat.into_iter().map(|form| Piece { form, object }));
-            Some(())
-        }
-        // The running min-with-id: `best`'s pieces keep their objects, `d`'s are object `id`.
-        Err(near) => match (g.get(dist), g.get(near)) {
-            (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => match g.get(t) {
-                Node::MinId(best, best_id, d, id) => {
-                    pieces_at(g, best, Err(best_id), out)?;
-                    pieces_at(g, d, Ok(id.get()), out)
-                }
-                _ => None,
-            },
-            _ => None,
+/// The running min over objects at `dist` (nearest object `near`) split into the pieces of
+/// the objects that are a few planes and spheres and the other objects; None where `dist` is
+/// no such min.
+fn split(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
+    let (mut exact, mut rest) = (vec![], vec![]);
+    split_at(g, dist, near, &mut exact, &mut rest)?;
+    // The running min starts at +infinity, which is no surface.
+    exact.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
+    Some((exact, rest))
+}
+
+/// `split` into `exact` and `rest`: the running min-with-id's `best` first, then its
+/// member `d` of object `id`; where the min starts, the object is a constant (+infinity,
+/// what the cut objects folded into, or the first object).
+fn split_at(
+    g: &Graph,
+    dist: Id,
+    near: Id,
+    exact: &mut Vec<Piece>,
+    rest: &mut Members,
+) -> Option<()> {
+    let (member, object) = match (g.get(dist), g.get(near)) {
+        (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => match g.get(t) {
+            Node::MinId(best, best_id, d, id) => {
+                split_at(g, best, best_id, exact, rest)?;
+                (d, id.get())
+            }
+            _ => return None,
         },
+        _ => (dist, g.constant(near)?),
+    };
+    let mut forms = vec![];
+    match min_of_forms(g, member, false, 0, &mut forms) {
+        Some(()) => exact.extend(forms.into_iter().map(|form| Piece { form, object })),
+        None if object >= 0.0 => rest.push((object as usize, member)),
+        None => return None,
     }
+    Some(())
 }
 
 /// `id` (negated when `neg`) as a min of forms, appended to `out`.

@@ -197,7 +197,7 @@ impl Marcher {
                 // Where a partial cell's pieces were met holds while the ray stays in it: one
                 // back in a cell it left (the region outside the cube is not convex) meets
                 // them again.
-                if st.partial != cell as *const Cell as usize {
+                if st.partial != address(cell) {
                     st.partial = 0;
                 }
                 let class = r.interior as usize;
@@ -260,7 +260,7 @@ impl Marcher {
                         // Where the ray meets the pieces is known once it is in the cell;
                         // how near they are matters only where it enters (a later step
                         // towards one ends at its root).
-                        let here = cell as *const Cell as usize;
+                        let here = address(cell);
                         if st.partial != here {
                             let (near, first) = meet(&partial.pieces, p - cell.origin, r.d);
                             (st.near, st.first) = (near, (st.t + first.0, first.1));
@@ -274,7 +274,7 @@ impl Marcher {
                     }
                     _ => class,
                 };
-                let key = (cell as *const Cell as usize) << 2 | tape;
+                let key = address(cell) << 2 | tape;
                 self.queue.push((key, i));
             }
             // Rays mostly stay in their cell from one step to the next, so the queue comes
@@ -390,6 +390,12 @@ fn meet(pieces: &[Piece], p: DVec4, d: DVec4) -> ((f64, f64), (f64, f64)) {
     (near, first)
 }
 
+/// A cell's address: which cell a ray's cached state belongs to, and the queue's sort key
+/// (cells live in the frame's tree, which does not move while rays march).
+fn address(cell: &Cell) -> usize {
+    cell as *const Cell as usize
+}
+
 /// An object index from a piece's (-1, none, for the cut bound of what is far).
 fn object(o: f64) -> usize {
     o.max(0.0) as usize
@@ -401,7 +407,7 @@ fn object(o: f64) -> usize {
 /// sphere covers the rest, and a relaxed step is checked on it at the next point if that is
 /// still in the cell (the pieces being clear up to there), and on the whole distance if not.
 fn partial_step(st: &mut State, d: f64, near: f32, cell: &Cell, tmax: f64) -> Step {
-    let here = cell as *const Cell as usize;
+    let here = address(cell);
     let (pieces, first) = (st.near, (st.first.0 - st.t, st.first.1));
     let exit = (st.leave - st.t).max(0.0);
     let check = if st.from == here { d } else { d.min(pieces.0) };
