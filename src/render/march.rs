@@ -253,10 +253,11 @@ impl Marcher {
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
                 }
-                // Rays inside objects run the cell's other tape, and rays in a partial cell
-                // its rest, having met its pieces.
-                let tape = match (r.interior, cell.partial()) {
-                    (false, Some(partial)) => {
+                // Rays inside objects run the cell's other tape (and never build a partial
+                // form), and rays in a partial cell its rest, having met its pieces.
+                let partial = if r.interior { None } else { cell.partial() };
+                let tape = match partial {
+                    Some(partial) => {
                         // Where the ray meets the pieces is known once it is in the cell;
                         // how near they are matters only where it enters (a later step
                         // towards one ends at its root).
@@ -272,7 +273,7 @@ impl Marcher {
                         }
                         PARTIAL
                     }
-                    _ => class,
+                    None => class,
                 };
                 let key = address(cell) << 2 | tape;
                 self.queue.push((key, i));
@@ -285,9 +286,10 @@ impl Marcher {
             for group in queue.chunk_by(|a, b| a.0 == b.0) {
                 let cell = at[group[0].1 as usize].expect("located above");
                 let (partial, interior) = (group[0].0 & 3 == PARTIAL, group[0].0 & 3 == 1);
-                let tape = match (interior, &cell.interior, cell.partial()) {
-                    (true, Some(t), _) => t,
-                    (false, _, Some(part)) if partial => &part.rest,
+                let tape = match (interior, &cell.interior) {
+                    (true, Some(t)) => t,
+                    // Built when the ray was queued.
+                    (false, _) if partial => &cell.partial().expect("a partial cell").rest,
                     _ => &cell.scene,
                 };
                 self.regs.fit(tape);
