@@ -4,6 +4,7 @@
 use clap::Args;
 use hyperslice::output;
 use hyperslice::render::driver::{self, Options};
+use hyperslice::render::march::MarcherKind;
 use hyperslice::render::sampler::SamplerKind;
 use hyperslice::scene::{Denoise, Quality, RenderSettings, Scene};
 use indicatif::HumanCount;
@@ -74,6 +75,10 @@ pub struct RenderArgs {
     /// Sobol sequence per pixel.
     #[arg(long, value_enum, default_value_t)]
     sampler: SamplerKind,
+    /// How rays are marched: through the frame's pruned cells, or plainly on the whole scene
+    /// tape (the baseline the cells are measured against; slower, never the default).
+    #[arg(long, value_enum, default_value_t)]
+    marcher: MarcherKind,
     /// Render only frame N of the scene's animation (0-based; `t` as in the whole animation).
     /// The file gets the frame's own number, e.g. out_0012.png.
     #[arg(long, value_name = "N", conflicts_with = "frame_range")]
@@ -336,6 +341,7 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         threads: (r.threads > 0).then_some(r.threads as usize),
         light_sampling: args.light_sampling == Switch::On,
         sampler: args.sampler,
+        marcher: args.marcher,
         time_budget: args.time_budget.map(|b| b.saturating_sub(finishing)),
         noise_threshold: args.noise_threshold,
         ..Options::default()

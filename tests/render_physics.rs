@@ -471,7 +471,7 @@ fn march_rays(src: &str, rays: impl FnOnce(&FrameScene) -> Vec<Ray>) -> Marched 
         max_steps: scene.render.max_steps,
     };
     let (mut marcher, mut hits) = (Marcher::default(), vec![]);
-    marcher.march(&frame.cells, &rays, limits, &mut hits);
+    marcher.march(frame.field(), &rays, limits, &mut hits);
     Marched {
         rays,
         hits,
@@ -802,7 +802,7 @@ fn cost_per_ray_is_flat_in_the_number_of_objects() {
         let rays = m.rays.len() as f64;
         (
             m.marcher.instructions as f64 / rays,
-            m.frame.cells.built() as f64 / rays,
+            m.frame.cells.as_ref().expect("cells").built() as f64 / rays,
         )
     };
     // Measured: 707 instructions per ray with 16 spheres; 309 with 576, and 25 nodes built
@@ -836,7 +836,7 @@ fn a_tiny_epsilon_does_not_split_a_tiling_into_a_cell_per_step() {
     };
     let built = |epsilon: &str| {
         let m = march_camera_rays(&scene(epsilon), (48, 36));
-        m.frame.cells.built()
+        m.frame.cells.as_ref().expect("cells").built()
     };
     let (default, tiny) = (built("1e-4"), built("1e-9"));
     eprintln!("nodes built: {default} at epsilon 1e-4, {tiny} at 1e-9");

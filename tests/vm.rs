@@ -605,7 +605,7 @@ fn pruned_cells_agree_with_the_whole_tape() {
                 points.extend((0..40).map(|k| cam + d * (k as f64 * 0.25)));
             }
             'point: for p in points {
-                let cell = fs.cells.find(p);
+                let cell = fs.cells.as_ref().expect("cells").find(p);
                 let whole = vm::eval_point(&fs.scene, &mut one, to32(p.to_array()), [0.0; 4], 0.0);
                 let local = (p - cell.origin).as_vec4().to_array();
                 let mut part = vm::eval_point(&cell.scene, &mut one, local, [0.0; 4], 0.0);

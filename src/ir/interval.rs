@@ -1,6 +1,7 @@
 //! Interval evaluation of the IR: conservative bounds (in `f64`) of every node over a 4D box.
 //! Pruning (`prune.rs`) decides `min`/`max` branches with them, and the marcher proves with
-//! them that a ray has left every object.
+//! them that a ray has left every object (`Intervals::along`: over the ray itself, not the box
+//! it spans, so a plane the ray moves away from is seen to stay behind it).
 
 use super::{Bin, Graph, Id, Node, Un, Var};
 use crate::math::kernel as k;
@@ -156,7 +157,151 @@ pub struct Intervals {
     outs: Vec<I>,
 }
 
+/// A node's value along a ray as `base + slope * s` for every `s >= 0` (the distance from the
+/// ray's start): exact for the linear parts of a graph (planes, turned and moved points).
+#[derive(Clone, Copy, Debug)]
+struct Line {
+    base: I,
+    slope: f64,
+}
+
+impl Line {
+    fn point(x: f64) -> Line {
+        Line {
+            base: I::point(x),
+            slope: 0.0,
+        }
+    }
+    /// Every value over `s >= 0`.
+    fn range(self) -> I {
+        match self.slope {
+            m if m > 0.0 => I::new(self.base.lo, f64::INFINITY),
+            m if m < 0.0 => I::new(f64::NEG_INFINITY, self.base.hi),
+            0.0 => self.base,
+            _ => I::ALL,
+        }
+    }
+    fn add(self, o: Line) -> Line {
+        Line {
+            base: self.base.add(o.base),
+            slope: self.slope + o.slope,
+        }
+    }
+    fn scale(self, c: f64) -> Line {
+        Line {
+            base: self.base.mul(I::point(c)),
+            slope: self.slope * c,
+        }
+    }
+    /// A constant, if this is one.
+    fn constant(self) -> Option<f64> {
+        (self.slope == 0.0 && self.base.is_point() && self.base.lo.is_finite())
+            .then_some(self.base.lo)
+    }
+    /// Whether `self <= o - margin` for every `s >= 0`.
+    fn below(self, o: Line, margin: f64) -> bool {
+        self.slope <= o.slope && self.base.hi + margin <= o.base.lo
+    }
+}
+
+/// The linear form of node `n` along the ray from `o` along `d`, where it has one.
+fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4]) -> Option<Line> {
+    let g = |x: Id| f[x.0 as usize];
+    let row = |v: [Id; 4], r: [super::K; 5]| {
+        (0..4).fold(Line::point(r[4].get()), |acc, i| {
+            acc.add(g(v[i]).scale(r[i].get()))
+        })
+    };
+    Some(match n {
+        Node::Var(v) if v.index() < 4 => Line {
+            base: I::point(o[v.index()]),
+            slope: d[v.index()],
+        },
+        Node::Const(c) => Line::point(c.get()),
+        Node::Un(Un::Neg, a) => g(a).scale(-1.0),
+        Node::Un(Un::Abs, a) => match g(a).range() {
+            r if r.lo >= 0.0 => g(a),
+            r if r.hi <= 0.0 => g(a).scale(-1.0),
+            _ => return None,
+        },
+        Node::Bin(Bin::Add, a, b) => g(a).add(g(b)),
+        Node::Bin(Bin::Sub, a, b) => g(a).add(g(b).scale(-1.0)),
+        Node::Bin(Bin::Mul, a, b) => match (g(a).constant(), g(b).constant()) {
+            (Some(c), _) => g(b).scale(c),
+            (_, Some(c)) => g(a).scale(c),
+            _ => return None,
+        },
+        Node::Bin(Bin::Div, a, b) => match g(b).constant() {
+            Some(c) if c != 0.0 => g(a).scale(1.0 / c),
+            _ => return None,
+        },
+        // A branch that wins all along the ray (by the blend width, for smooth ones).
+        Node::Bin(op @ (Bin::Min | Bin::Max), a, b) => pick(op == Bin::Min, g(a), g(b), 0.0)?,
+        Node::SMin(a, b, k) => pick(true, g(a), g(b), g(k).constant()?.max(0.0))?,
+        Node::SMax(a, b, k) => pick(false, g(a), g(b), g(k).constant()?.max(0.0))?,
+        Node::Select(c, a, b) => match g(c).range() {
+            c if c == I::point(0.0) => g(b),
+            c if c.excludes_zero() => g(a),
+            _ => return None,
+        },
+        Node::Affine(v, r) => row(v, r),
+        _ => return None,
+    })
+}
+
+/// The operand of a min (`min`) or max that it returns all along the ray, if one does by at
+/// least `margin`.
+fn pick(min: bool, a: Line, b: Line, margin: f64) -> Option<Line> {
+    let (lo, hi) = if a.below(b, margin) {
+        (a, b)
+    } else if b.below(a, margin) {
+        (b, a)
+    } else {
+        return None;
+    };
+    Some(if min { lo } else { hi })
+}
+
 impl Intervals {
+    /// Bounds of every node over the ray from `o` along `d` (`s >= 0`): linear parts are
+    /// followed exactly along it, the rest bounded over the values their operands take there.
+    /// At least as tight as bounds over the box the ray spans, and tighter wherever the ray's
+    /// coordinates are correlated (a plane turned out of the axes).
+    pub fn along(g: &Graph, o: [f64; 4], d: [f64; 4]) -> Intervals {
+        let span = |a: usize| {
+            Line {
+                base: I::point(o[a]),
+                slope: d[a],
+            }
+            .range()
+        };
+        let vars = |v: Var| match v.index() {
+            a @ 0..4 => span(a),
+            _ => I::ALL,
+        };
+        let mut iv = Intervals::default();
+        let mut lines: Vec<Line> = Vec::with_capacity(g.len());
+        for i in 0..g.len() {
+            let n = g.get(Id(i as u32));
+            let outs = iv.outs.len();
+            let l = match line(n, &lines, o, d) {
+                Some(l) => l,
+                None => Line {
+                    base: iv.node(n, &vars),
+                    slope: 0.0,
+                },
+            };
+            iv.vals.push(l.range());
+            iv.start.push(if iv.outs.len() > outs {
+                outs as u32
+            } else {
+                u32::MAX
+            });
+            lines.push(l);
+        }
+        iv
+    }
+
     /// Bounds of the nodes `live` marks (all when `None`) for inputs in `vars`.
     pub fn of(g: &Graph, vars: &impl Fn(Var) -> I, live: Option<&[bool]>) -> Intervals {
         let mut iv = Intervals::default();

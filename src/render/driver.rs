@@ -15,6 +15,7 @@
 use super::frame::{Features, FrameScene};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
 use super::march::Limits;
+use super::march::MarcherKind;
 use super::sampler::SamplerKind;
 use crate::compile::{Compiled, frame_time};
 use crate::error::{Error, Result};
@@ -47,6 +48,8 @@ pub struct Options {
     pub light_sampling: bool,
     /// Where the random numbers come from.
     pub sampler: SamplerKind,
+    /// How rays are marched: through pruned cells (the default) or plainly on the whole tape.
+    pub marcher: MarcherKind,
     /// Progressive rendering: stop taking samples once this much time is spent (after at
     /// least one sample per pixel), up to the scene's `spp`.
     pub time_budget: Option<Duration>,
@@ -63,6 +66,7 @@ impl Default for Options {
             general: false,
             light_sampling: true,
             sampler: SamplerKind::default(),
+            marcher: MarcherKind::default(),
             time_budget: None,
             noise_threshold: None,
         }
@@ -397,7 +401,8 @@ pub fn render_units(
                 .into_iter()
                 .map(|(unit, earlier)| {
                     let t = frame_time(unit.frame, r.frames);
-                    let fs = FrameScene::new(scene, &compiled, features, t);
+                    let fs =
+                        FrameScene::for_marcher(scene, &compiled, features, t, options.marcher);
                     let initial = Stack::at_camera(&fs, r.epsilon);
                     let (sums, stats) = match earlier {
                         Some(p) => (tiled(&p.sums, &tiles, r.width), p.stats),

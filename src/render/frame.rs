@@ -3,12 +3,14 @@
 
 use super::camera::FrameCamera;
 use super::lights::{Lights, SphereLight};
+use super::march::{Field, MarcherKind};
 use super::material::{Layout, Medium, Surface};
 use crate::compile::{Compiled, LightPlacement};
 use crate::ir::SceneIr;
 use crate::scene::Scene;
 use crate::vm::Tape;
 use crate::vm::cells::{Cells, Roots};
+use crate::vm::escape::Escape;
 use glam::{DVec3, DVec4};
 
 pub struct FrameObject {
@@ -39,13 +41,28 @@ pub struct FrameScene {
     pub features: Features,
     /// The spherical emitters of this frame, for next-event estimation.
     pub lights: Lights,
-    /// The scene and interior tapes pruned to regions of space: what rays march through.
-    pub cells: Cells,
+    /// The scene and interior tapes pruned to regions of space: what rays march through
+    /// (none for the plain marcher, which marches the whole tapes).
+    pub cells: Option<Cells>,
+    /// What proves that a ray has left every object.
+    pub escape: Escape,
 }
 
 impl FrameScene {
-    /// The frame at animation time `t`: its compiled program, camera, media and lights.
+    /// The frame at animation time `t`: its compiled program, camera, media and lights, for
+    /// the cells' marcher.
     pub fn new(scene: &Scene, compiled: &Compiled, features: Features, t: f64) -> FrameScene {
+        FrameScene::for_marcher(scene, compiled, features, t, MarcherKind::Cells)
+    }
+
+    /// The frame at `t`, with cells only where `marcher` marches through them.
+    pub fn for_marcher(
+        scene: &Scene,
+        compiled: &Compiled,
+        features: Features,
+        t: f64,
+        marcher: MarcherKind,
+    ) -> FrameScene {
         let frame = compiled.frame(t);
         let program = frame.program;
         let objects: Vec<FrameObject> = (program.objects.into_iter())
@@ -60,16 +77,18 @@ impl FrameScene {
             .filter_map(|l| sphere_light(l, &objects[l.object], t))
             .collect();
         let camera = FrameCamera::new(&scene.camera, t, &frame.look);
-        let cells = cells(
+        let (cells, escape) = cells(
             &program.ir,
             &compiled.bounds,
             camera.position,
             scene.render.epsilon,
+            marcher,
         );
         FrameScene {
             t,
             camera,
             cells,
+            escape,
             scene: program.scene,
             interior: program.interior,
             lights: Lights::new(lights, objects.len()),
@@ -81,9 +100,16 @@ impl FrameScene {
     }
 }
 
-/// The cells of a frame: a cube around the camera and every bounded object, twice their
-/// extent, so rays near them and on the ground between them use pruned tapes.
-fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4, epsilon: f64) -> Cells {
+/// The cells of a frame (for the cells' marcher): a cube around the camera and every bounded
+/// object, twice their extent, so rays near them and on the ground between them use pruned
+/// tapes; and the proof of escape from the box of the bounded objects.
+fn cells(
+    ir: &SceneIr,
+    bounds: &[Option<([f64; 4], f64)>],
+    camera: DVec4,
+    epsilon: f64,
+    marcher: MarcherKind,
+) -> (Option<Cells>, Escape) {
     let (mut lo, mut hi) = (camera, camera);
     let mut unbounded = vec![];
     for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
@@ -99,6 +125,11 @@ fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4, epsilo
             _ => unbounded.push((i, o.distance)),
         }
     }
+    let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
+    let escape = Escape::new(&ir.graph, (lo, hi), &distances);
+    if marcher == MarcherKind::Plain {
+        return (None, escape);
+    }
     let roots = Roots {
         scene: (ir.distance, ir.nearest),
         interior: ir.interior,
@@ -107,7 +138,8 @@ fn cells(ir: &SceneIr, bounds: &[Option<([f64; 4], f64)>], camera: DVec4, epsilo
     let size = 2.0 * (hi - lo).max_element().max(1.0);
     let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
     let cube = (corner, size);
-    Cells::new(&ir.graph, roots, cube, (lo, hi), &unbounded, epsilon)
+    let cells = Cells::new(&ir.graph, roots, cube, &unbounded, epsilon);
+    (Some(cells), escape)
 }
 
 impl Features {
@@ -144,6 +176,16 @@ fn sphere_light(l: &LightPlacement, o: &FrameObject, t: f64) -> Option<SphereLig
 }
 
 impl FrameScene {
+    /// What the frame's rays march through.
+    pub fn field(&self) -> Field<'_> {
+        Field {
+            cells: self.cells.as_ref(),
+            scene: &self.scene,
+            interior: self.interior.as_ref(),
+            escape: &self.escape,
+        }
+    }
+
     /// Whether `p` is strictly inside object `i` (by more than `eps`).
     pub fn contains(&self, i: usize, p: DVec4, eps: f64) -> bool {
         let mut regs = crate::vm::Regs::<f32, 1>::new(&self.objects[i].distance);

@@ -24,7 +24,7 @@
 //! thread count; with it off no extra numbers are drawn and the estimator is plain BSDF sampling.
 
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
-use super::frame::FrameScene;
+use super::frame::{FrameObject, FrameScene};
 use super::lights::Lights;
 use super::march::{Hit, Limits, Marcher, Ray};
 use super::material::{Medium, Surface};
@@ -33,7 +33,7 @@ use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::film::PixelSums;
 use crate::ir::Var;
-use crate::vm::cells::Cell;
+use crate::vm::cells::{Cell, epsilon_at};
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
 
@@ -189,8 +189,9 @@ struct Pending<'c> {
     p: DVec4,
     t: f64,
     object: u32,
-    /// The cell of the hit, whose pruned tape of the object gives its normal.
-    cell: &'c Cell,
+    /// The cell of the hit, whose pruned tape of the object gives its normal (none for the
+    /// plain marcher: the whole object tape does).
+    cell: Option<&'c Cell>,
 }
 
 /// A light sample waiting for its shadow ray: what it adds to path `path` if the ray's first
@@ -357,7 +358,7 @@ fn trace(
             });
         }
         let before = (marcher.evaluations, marcher.instructions);
-        marcher.march(&fs.cells, rays, s.limits, hits);
+        marcher.march(fs.field(), rays, s.limits, hits);
         stats.count_work(marcher, before);
 
         // Resolve everything but surface hits; collect those.
@@ -386,7 +387,7 @@ fn trace(
                         p,
                         t,
                         object: object as u32,
-                        cell: fs.cells.find(p),
+                        cell: fs.cells.as_ref().map(|c| c.find(p)),
                     })
                 }
             }
@@ -395,11 +396,11 @@ fn trace(
         // Normals and materials, a packet of one object's hits at a time.
         // By cell too, for the normals; in the same order in every run, since shading adds to
         // the pixels' sums in this order.
-        pending.sort_by_key(|h| (h.object, h.cell.id()));
+        pending.sort_by_key(|h| (h.object, h.cell.map(Cell::id)));
         for group in pending.chunk_by(|a, b| a.object == b.object) {
             let object = &fs.objects[group[0].object as usize];
             for chunk in group.chunks(LANES) {
-                normals_of(chunk, grad, normals);
+                normals_of(chunk, object, grad, normals);
                 let n_out = object.material.outputs.len();
                 regs.fit(&object.material);
                 *regs.input(Var::T.index()) = [fs.t as f32; LANES];
@@ -427,7 +428,7 @@ fn trace(
         // Shadow rays of the light samples taken above, all at once.
         if !shadows.pending.is_empty() {
             let before = (marcher.evaluations, marcher.instructions);
-            marcher.march(&fs.cells, &shadows.rays, s.limits, &mut shadows.hits);
+            marcher.march(fs.field(), &shadows.rays, s.limits, &mut shadows.hits);
             stats.count_work(marcher, before);
             stats.shadow_rays += shadows.rays.len() as u64;
             for (sh, hit) in shadows.pending.iter().zip(&shadows.hits) {
@@ -468,13 +469,24 @@ fn trace(
 /// as pruned to the hit's cell (in its local coordinates, so far from the origin they keep
 /// their precision; one packet per cell); where the gradient vanishes or is not finite, the
 /// normal faces back along the ray.
-fn normals_of(hits: &[Pending], grad: &mut Regs<Dual, LANES>, out: &mut Vec<DVec4>) {
+fn normals_of(
+    hits: &[Pending],
+    object: &FrameObject,
+    grad: &mut Regs<Dual, LANES>,
+    out: &mut Vec<DVec4>,
+) {
     let mut g = Vec::with_capacity(hits.len());
-    for run in hits.chunk_by(|a, b| std::ptr::eq(a.cell, b.cell)) {
-        let cell = run[0].cell;
-        let tape = &cell.objects()[run[0].object as usize];
+    let same = |a: Option<&Cell>, b: Option<&Cell>| match (a, b) {
+        (Some(a), Some(b)) => std::ptr::eq(a, b),
+        (a, b) => a.is_none() && b.is_none(),
+    };
+    for run in hits.chunk_by(|a, b| same(a.cell, b.cell)) {
+        let (tape, origin) = match run[0].cell {
+            Some(cell) => (&cell.objects()[run[0].object as usize], cell.origin),
+            None => (&object.distance, DVec4::ZERO),
+        };
         let points: Vec<[f32; 4]> = (run.iter())
-            .map(|h| (h.p - cell.origin).as_vec4().to_array())
+            .map(|h| (h.p - origin).as_vec4().to_array())
             .collect();
         g.extend(crate::vm::gradient(tape, grad, &points, 0.0));
     }
@@ -639,7 +651,10 @@ fn shade(
     // The hit's precision is that of its cell, where its distance was evaluated (on the
     // interior tape, for a ray inside an object), not of its distance from the origin.
     let interior = path.stack.len > 0 && fs.interior.is_some() && fs.features.interiors;
-    let eps = h.cell.epsilon(h.p, s.limits.epsilon, interior);
+    let eps = match h.cell {
+        Some(cell) => cell.epsilon(h.p, s.limits.epsilon, interior),
+        None => epsilon_at(h.p, s.limits.epsilon),
+    };
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
     if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {

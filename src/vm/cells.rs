@@ -15,12 +15,13 @@
 //! coordinates local to its centre, and a ray there drops those it provably never meets.
 
 use super::Tape;
+use super::escape::entry;
 use crate::ir::exact::{Piece, partition, pieces};
-use crate::ir::interval::{I, Intervals};
+use crate::ir::interval::I;
 use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
 use crate::ir::prune::{Pruned, prune};
-use crate::ir::{Graph, Id, Node, Un, Var};
+use crate::ir::{Graph, Id, Node, Un};
 use glam::DVec4;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -111,11 +112,10 @@ pub struct Cells {
     /// Points outside the cube: the scene without the bounded objects, which all lie inside
     /// it. A step from such a point may go no further than to the cube.
     outside: Outside,
-    escape: Escape,
 }
 
 /// The cells outside the cube: one of every unbounded object, and one of each subset of
-/// them, built when a ray first proves it meets no other (`Cells::escapes`): a ray grazing a
+/// them, built when a ray first proves it meets no other (`Escape::escapes`): a ray grazing a
 /// floor past a custom field meets the floor exactly once the field is out of its way.
 struct Outside {
     all: Cell,
@@ -204,7 +204,7 @@ fn outside(
 /// The distance below which a point counts as on a surface, at `p` in a tape's local
 /// coordinates: `f32` cannot resolve distances below a few ulps of the coordinates, so far
 /// from the tape's origin the epsilon grows with them.
-fn epsilon_at(p: DVec4, epsilon: f64) -> f64 {
+pub fn epsilon_at(p: DVec4, epsilon: f64) -> f64 {
     epsilon.max(p.abs().max_element() * (1.0 / (1u64 << 21) as f64))
 }
 
@@ -213,15 +213,6 @@ fn epsilon_at(p: DVec4, epsilon: f64) -> f64 {
 pub struct Path<'a> {
     cells: [&'a Cell; PRECISE_DEPTH as usize + 1],
     len: usize,
-}
-
-/// What proves that a ray has left the scene: the box `lo..hi` holds every bounded object,
-/// and `roots` are the distances of the unbounded ones (halfspaces, tilings, custom fields).
-struct Escape {
-    lo: DVec4,
-    hi: DVec4,
-    graph: Graph,
-    roots: Vec<Id>,
 }
 
 /// The roots a cell specialises: the scene's distance and nearest object, the interior's
@@ -294,14 +285,12 @@ impl Cells {
     /// Cells over the cube of edge `size` at corner `lo`, from the frame's optimised graph.
     /// `scene` is the scene's distance and nearest object, `interior` the interior's, and
     /// `objects` each object's distance. `unbounded` lists (object index, distance) for the
-    /// objects that may reach outside the box `bounded`; every other object lies inside it,
-    /// and the box inside the cube. Near surfaces, cells resolve `epsilon` (the marching
+    /// objects that may reach outside the cube; every other object lies inside it. Near surfaces, cells resolve `epsilon` (the marching
     /// epsilon) however large the cube.
     pub fn new(
         g: &Graph,
         tapes: Roots,
         (lo, size): (DVec4, f64),
-        bounded: (DVec4, DVec4),
         unbounded: &[(usize, Id)],
         epsilon: f64,
     ) -> Cells {
@@ -320,18 +309,10 @@ impl Cells {
         };
         let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, needs);
         let outside = Outside::new(g, unbounded, tapes.objects, needs, centre);
-        let roots: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
-        let (graph, map) = g.rebuild(&roots, |g, n| g.intern(n));
         Cells {
             built: AtomicU64::new(0),
             root,
             outside,
-            escape: Escape {
-                lo: bounded.0,
-                hi: bounded.1,
-                graph,
-                roots: roots.iter().map(|r| map[r.0 as usize]).collect(),
-            },
         }
     }
 
@@ -379,7 +360,7 @@ impl Cells {
     }
 
     /// The region outside the cube with only the unbounded objects in `keep` (bit `i`: the
-    /// `i`th, as `escapes` proves them out of a ray's way).
+    /// `i`th, as `Escape::escapes` proves them out of a ray's way).
     pub fn outside(&self, keep: u64) -> &Cell {
         self.outside.keeping(keep)
     }
@@ -402,77 +383,6 @@ impl Cells {
             None => f64::INFINITY,
         }
     }
-
-    /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
-    /// of the bounded objects again, and no unbounded object's distance changes sign anywhere
-    /// in the box the rest of the ray spans. For a ray outside objects (not `interior`) the
-    /// distances must be positive there: one negative all along means the ray has crossed
-    /// that surface (by a rounding, at a cell's side), and it meets it where it is. `keep`
-    /// holds the unbounded objects the ray may still meet (bit `i`: the `i`th); once the
-    /// ray is past the box, those proven out of its way leave it.
-    pub fn escapes(&self, p: DVec4, d: DVec4, interior: bool, keep: &mut u64) -> bool {
-        let e = &self.escape;
-        // A ray bound for the box cannot escape yet, and is left the intervals until it has
-        // passed it: they cost a pass over the unbounded objects' graph, 14% of a tiling's
-        // render when every attempt paid it.
-        if entry(p, d, e.lo, e.hi).is_some() {
-            return false;
-        }
-        // Objects past the mask's 64 bits count only when all are out of the way.
-        let mut rest = true;
-        if !e.roots.is_empty() {
-            let span = |a: usize| match d[a] {
-                x if x > 0.0 => I::new(p[a], f64::INFINITY),
-                x if x < 0.0 => I::new(f64::NEG_INFINITY, p[a]),
-                _ => I::point(p[a]),
-            };
-            let vars = |v: Var| match v {
-                Var::X | Var::Y | Var::Z | Var::W => span(v.index()),
-                _ => I::ALL,
-            };
-            let iv = Intervals::of(&e.graph, &vars, None);
-            for (i, r) in e.roots.iter().enumerate() {
-                let x = iv.get(*r);
-                let clear = if interior {
-                    x.excludes_zero()
-                } else {
-                    x.lo > 0.0
-                };
-                match i {
-                    0..64 if clear => *keep &= !(1 << i),
-                    0..64 => {}
-                    _ => rest &= clear,
-                }
-            }
-        }
-        *keep == 0 && rest
-    }
-
-    /// Every unbounded object, as `escapes` and `outside` take them.
-    pub fn unbounded(&self) -> u64 {
-        match self.escape.roots.len() {
-            n @ 0..64 => (1 << n) - 1,
-            _ => u64::MAX,
-        }
-    }
-}
-
-/// Where the ray from `p` along `d` first meets the box `lo..hi`, if it does (slab test,
-/// `t >= 0`; 0 when `p` is inside).
-fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
-    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
-    for a in 0..4 {
-        if d[a] == 0.0 {
-            if p[a] < lo[a] || p[a] > hi[a] {
-                return None;
-            }
-            continue;
-        }
-        let (u, v) = ((lo[a] - p[a]) / d[a], (hi[a] - p[a]) / d[a]);
-        t0 = t0.max(u.min(v));
-        t1 = t1.min(u.max(v));
-    }
-    (t0 <= t1).then_some(t0)
 }
 
 /// The cell's distance split into pieces met exactly and a tape of the rest, where it has

@@ -5,6 +5,7 @@
 //! map (selector, then every parameter). `compile` builds it.
 
 pub mod cells;
+pub mod escape;
 pub mod exec;
 pub mod grad;
 mod print;

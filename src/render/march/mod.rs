@@ -10,13 +10,48 @@
 //! consecutive points fail to overlap. `omega` follows the distance's slope along the ray
 //! (Bán and Valasek 2023, "Automatic Step Size Relaxation in Sphere Tracing"): rays leaving
 //! a surface, where the distance grows, take long steps, and rays closing in on one plain
-//! ones. A ray sees the sky only when it provably leaves every object (`Cells::escapes`),
-//! never by travelling far.
+//! ones. A ray sees the sky only when it provably leaves every object (`Escape::escapes`),
+//! never by travelling far (`vm::escape`). `--marcher plain` marches the whole tape instead
+//! (`plain`): the baseline the cells are measured and tested against.
+
+mod plain;
 
 use crate::ir::exact::Piece;
 use crate::vm::cells::{Cell, Cells};
-use crate::vm::{LANES, Regs, run};
+use crate::vm::escape::Escape;
+use crate::vm::{LANES, Regs, Tape, run};
 use glam::DVec4;
+
+/// Which marcher a render uses.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum MarcherKind {
+    /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres
+    /// (the default).
+    #[default]
+    Cells,
+    /// Plain sphere tracing on the whole scene tape: no cells, no relaxation, no exact
+    /// shortcuts. The in-process baseline for measurements and tests.
+    Plain,
+}
+
+impl MarcherKind {
+    pub fn name(self) -> &'static str {
+        match self {
+            MarcherKind::Cells => "cells",
+            MarcherKind::Plain => "plain",
+        }
+    }
+}
+
+/// What a frame's rays march through: its cells (none for the plain marcher), the whole
+/// scene and interior tapes, and the proof that a ray has left the scene.
+#[derive(Clone, Copy)]
+pub struct Field<'a> {
+    pub cells: Option<&'a Cells>,
+    pub scene: &'a Tape,
+    pub interior: Option<&'a Tape>,
+    pub escape: &'a Escape,
+}
 
 /// A ray segment to march: from `o` along the unit direction `d` up to `tmax`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -70,7 +105,7 @@ struct State {
     relax: bool,
     /// The next `t` at which to try to prove that the ray has left the scene.
     escape_at: f64,
-    /// The unbounded objects the ray may still meet (`Cells::escapes`).
+    /// The unbounded objects the ray may still meet (`Escape::escapes`).
     keep: u64,
     /// Where the ray enters the cells' cube from outside (`Cells::enter`).
     enter: f64,
@@ -145,14 +180,28 @@ enum Step {
 }
 
 impl Marcher {
-    /// March every ray through `cells`; `hits[i]` receives ray `i`'s result. Rays with
+    /// March every ray through `field`; `hits[i]` receives ray `i`'s result. Rays with
     /// `interior` set march on the interior tapes.
-    pub fn march(&mut self, cells: &Cells, rays: &[Ray], limits: Limits, hits: &mut Vec<Hit>) {
+    pub fn march(&mut self, field: Field, rays: &[Ray], limits: Limits, hits: &mut Vec<Hit>) {
+        match field.cells {
+            Some(cells) => self.march_cells(cells, field.escape, rays, limits, hits),
+            None => self.march_plain(field, rays, limits, hits),
+        }
+    }
+
+    fn march_cells(
+        &mut self,
+        cells: &Cells,
+        escape: &Escape,
+        rays: &[Ray],
+        limits: Limits,
+        hits: &mut Vec<Hit>,
+    ) {
         hits.clear();
         hits.resize(rays.len(), Hit::Beyond);
         self.state.clear();
         self.state.resize(rays.len(), State::default());
-        let unbounded = cells.unbounded();
+        let unbounded = escape.unbounded();
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
             st.keep = unbounded;
@@ -181,7 +230,7 @@ impl Marcher {
                         // have ended as a plain one (a relaxed step is checked at the next
                         // point): the proof starts there.
                         let clear = p - r.d * (st.step - st.radius).max(0.0);
-                        if cells.escapes(clear, r.d, r.interior, &mut st.keep) {
+                        if escape.escapes(clear, r.d, r.interior, &mut st.keep) {
                             hits[k] = Hit::Beyond;
                             continue;
                         }

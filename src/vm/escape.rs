@@ -1,0 +1,92 @@
+//! The proof that a ray has left the scene: it never enters the box of the bounded objects
+//! again, and no unbounded object's distance reaches zero along the rest of it. Both marchers
+//! (the cells' and the plain one) end a ray at the sky only on this proof, never by
+//! travelling far.
+
+use crate::ir::interval::Intervals;
+use crate::ir::{Graph, Id};
+use glam::DVec4;
+
+/// The box `lo..hi` holds every bounded object, and `roots` are the distances of the unbounded
+/// ones (halfspaces, tilings, custom fields).
+pub struct Escape {
+    lo: DVec4,
+    hi: DVec4,
+    graph: Graph,
+    roots: Vec<Id>,
+}
+
+impl Escape {
+    /// From the frame's graph: the box of its bounded objects and the distances of the others.
+    pub fn new(g: &Graph, bounded: (DVec4, DVec4), unbounded: &[Id]) -> Escape {
+        let (graph, map) = g.rebuild(unbounded, |g, n| g.intern(n));
+        Escape {
+            lo: bounded.0,
+            hi: bounded.1,
+            graph,
+            roots: unbounded.iter().map(|r| map[r.0 as usize]).collect(),
+        }
+    }
+
+    /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
+    /// of the bounded objects again, and no unbounded object's distance changes sign anywhere
+    /// along the rest of the ray (bounded along the ray itself, `Intervals::along`). For a ray
+    /// outside objects (not `interior`) the distances must be positive there: one negative
+    /// all along means the ray has crossed that surface (by a rounding, at a cell's side),
+    /// and it meets it where it is. `keep` holds the unbounded objects the ray may still
+    /// meet (bit `i`: the `i`th); once the ray is past the box, those proven out of its way
+    /// leave it.
+    pub fn escapes(&self, p: DVec4, d: DVec4, interior: bool, keep: &mut u64) -> bool {
+        // A ray bound for the box cannot escape yet, and is left the intervals until it has
+        // passed it: they cost a pass over the unbounded objects' graph, 14% of a tiling's
+        // render when every attempt paid it.
+        if entry(p, d, self.lo, self.hi).is_some() {
+            return false;
+        }
+        // Objects past the mask's 64 bits count only when all are out of the way.
+        let mut rest = true;
+        if !self.roots.is_empty() {
+            let iv = Intervals::along(&self.graph, p.to_array(), d.to_array());
+            for (i, r) in self.roots.iter().enumerate() {
+                let x = iv.get(*r);
+                let clear = if interior {
+                    x.excludes_zero()
+                } else {
+                    x.lo > 0.0
+                };
+                match i {
+                    0..64 if clear => *keep &= !(1 << i),
+                    0..64 => {}
+                    _ => rest &= clear,
+                }
+            }
+        }
+        *keep == 0 && rest
+    }
+
+    /// Every unbounded object, as `escapes` takes them.
+    pub fn unbounded(&self) -> u64 {
+        match self.roots.len() {
+            n @ 0..64 => (1 << n) - 1,
+            _ => u64::MAX,
+        }
+    }
+}
+
+/// Where the ray from `p` along `d` first meets the box `lo..hi`, if it does (slab test,
+/// `t >= 0`; 0 when `p` is inside).
+pub fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
+    let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
+    for a in 0..4 {
+        if d[a] == 0.0 {
+            if p[a] < lo[a] || p[a] > hi[a] {
+                return None;
+            }
+            continue;
+        }
+        let (u, v) = ((lo[a] - p[a]) / d[a], (hi[a] - p[a]) / d[a]);
+        t0 = t0.max(u.min(v));
+        t1 = t1.min(u.max(v));
+    }
+    (t0 <= t1).then_some(t0)
+}
