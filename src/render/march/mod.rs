@@ -14,13 +14,15 @@
 //! never by travelling far (`vm::escape`). `--marcher plain` marches the whole tape instead
 //! (`plain`): the baseline the cells are measured and tested against.
 
+mod lanes;
 mod plain;
 
 use crate::ir::exact::Piece;
+use crate::vm::Tape;
 use crate::vm::cells::{Cell, Cells};
 use crate::vm::escape::Escape;
-use crate::vm::{LANES, Regs, Tape, run};
 use glam::DVec4;
+use lanes::Lanes;
 
 /// Which marcher a render uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -140,8 +142,9 @@ impl State {
 }
 
 /// Per-thread scratch space of the marcher.
+#[derive(Default)]
 pub struct Marcher {
-    regs: Regs<f32, LANES>,
+    lanes: Lanes,
     state: Vec<State>,
     active: Vec<u32>,
     next: Vec<u32>,
@@ -153,20 +156,6 @@ pub struct Marcher {
     /// Instructions those evaluations ran (a tape's length per lane, an affine cell's
     /// pieces): the work a step costs, which pruning shortens.
     pub instructions: u64,
-}
-
-impl Default for Marcher {
-    fn default() -> Self {
-        Marcher {
-            regs: Regs { r: vec![] },
-            state: vec![],
-            active: vec![],
-            next: vec![],
-            queue: vec![],
-            evaluations: 0,
-            instructions: 0,
-        }
-    }
 }
 
 /// What one step found for one ray.
@@ -341,21 +330,17 @@ impl Marcher {
                     (false, _) if partial => &cell.partial().expect("a partial cell").rest,
                     _ => &cell.scene,
                 };
-                self.regs.fit(tape);
-                for chunk in group.chunks(LANES) {
-                    for (lane, &(_, i)) in chunk.iter().enumerate() {
-                        let p = (self.state[i as usize].p - cell.origin).as_vec4();
-                        for axis in 0..4 {
-                            self.regs.input(axis)[lane] = p[axis];
-                        }
-                    }
-                    run(tape, &mut self.regs);
-                    self.evaluations += chunk.len() as u64;
-                    self.instructions += (chunk.len() * tape.code.len()) as u64;
-                    let (dist, near) = (tape.outputs[0], tape.outputs[1]);
-                    for (lane, &(_, i)) in chunk.iter().enumerate() {
-                        let d = self.regs.get(dist)[lane] as f64;
-                        let near = self.regs.get(near)[lane];
+                self.lanes.points.clear();
+                (self.lanes.points).extend(
+                    (group.iter())
+                        .map(|&(_, i)| (self.state[i as usize].p - cell.origin).as_vec4()),
+                );
+                self.lanes.run(tape);
+                self.evaluations += group.len() as u64;
+                self.instructions += (group.len() * tape.code.len()) as u64;
+                {
+                    for (&(_, i), &(d, near)) in group.iter().zip(&self.lanes.out) {
+                        let d = d as f64;
                         let (k, r) = (i as usize, &rays[i as usize]);
                         let st = &mut self.state[k];
                         let step = if d.is_nan() {

@@ -7,7 +7,6 @@
 
 use super::{Field, Hit, Limits, Marcher, Ray, State};
 use crate::vm::cells::epsilon_at;
-use crate::vm::{LANES, run};
 
 impl Marcher {
     pub(super) fn march_plain(
@@ -36,7 +35,6 @@ impl Marcher {
             if self.active.is_empty() {
                 continue;
             }
-            self.regs.fit(tape);
             while !self.active.is_empty() {
                 // Rays proven clear of every object leave for the sky.
                 self.active.retain(|&i| {
@@ -50,35 +48,29 @@ impl Marcher {
                         .escapes(r.o + r.d * st.t, r.d, interior, &mut st.keep)
                 });
                 self.next.clear();
-                for chunk in self.active.chunks(LANES) {
-                    for (lane, &i) in chunk.iter().enumerate() {
-                        let (r, st) = (&rays[i as usize], &self.state[i as usize]);
-                        let p = (r.o + r.d * st.t).as_vec4();
-                        for axis in 0..4 {
-                            self.regs.input(axis)[lane] = p[axis];
-                        }
-                    }
-                    run(tape, &mut self.regs);
-                    self.evaluations += chunk.len() as u64;
-                    self.instructions += (chunk.len() * tape.code.len()) as u64;
-                    let (dist, near) = (
-                        self.regs.get(tape.outputs[0]),
-                        self.regs.get(tape.outputs[1]),
-                    );
-                    for (lane, &i) in chunk.iter().enumerate() {
+                self.lanes.points.clear();
+                (self.lanes.points).extend(self.active.iter().map(|&i| {
+                    let (r, st) = (&rays[i as usize], &self.state[i as usize]);
+                    (r.o + r.d * st.t).as_vec4()
+                }));
+                self.lanes.run(tape);
+                self.evaluations += self.active.len() as u64;
+                self.instructions += (self.active.len() * tape.code.len()) as u64;
+                {
+                    for (&i, &(d, near)) in self.active.iter().zip(&self.lanes.out) {
                         let (k, r) = (i as usize, &rays[i as usize]);
                         let st = &mut self.state[k];
-                        let d = dist[lane] as f64;
+                        let d = d as f64;
                         if d.is_nan() {
                             // NaN from a user's field ends the ray like a ray that ran out.
                             hits[k] = Hit::OutOfSteps;
                             continue;
                         }
-                        if d < epsilon_at(r.o + r.d * st.t, limits.epsilon) && near[lane] >= 0.0 {
+                        if d < epsilon_at(r.o + r.d * st.t, limits.epsilon) && near >= 0.0 {
                             hits[k] = if st.t < r.tmax {
                                 Hit::Surface {
                                     t: st.t,
-                                    object: near[lane] as usize,
+                                    object: near as usize,
                                 }
                             } else {
                                 Hit::Beyond
