@@ -172,6 +172,19 @@ impl Marcher {
     /// March every ray through `field`; `hits[i]` receives ray `i`'s result. Rays with
     /// `interior` set march on the interior tapes.
     pub fn march(&mut self, field: Field, rays: &[Ray], limits: Limits, hits: &mut Vec<Hit>) {
+        // Every ray starts at its origin, may still meet every unbounded object, and has
+        // found nothing yet.
+        hits.clear();
+        hits.resize(rays.len(), Hit::Beyond);
+        let keep = field.escape.unbounded();
+        self.state.clear();
+        self.state.resize(
+            rays.len(),
+            State {
+                keep,
+                ..State::default()
+            },
+        );
         match field.cells {
             Some(cells) => self.march_cells(cells, field.escape, rays, limits, hits),
             None => self.march_plain(field, rays, limits, hits),
@@ -184,16 +197,11 @@ impl Marcher {
         escape: &Escape,
         rays: &[Ray],
         limits: Limits,
-        hits: &mut Vec<Hit>,
+        hits: &mut [Hit],
     ) {
-        hits.clear();
-        hits.resize(rays.len(), Hit::Beyond);
-        self.state.clear();
-        self.state.resize(rays.len(), State::default());
         let unbounded = escape.unbounded();
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
-            st.keep = unbounded;
             // An unsigned distance does not change sign where a relaxed step crosses a
             // surface, and the spheres of the two points still touch there: rays inside
             // objects take plain steps.

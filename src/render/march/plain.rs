@@ -5,7 +5,7 @@
 //! against. A ray sees the sky on the same proof as there (`Escape::escapes`), tried each time
 //! it has gone twice as far.
 
-use super::{Field, Hit, Limits, Marcher, Ray, State};
+use super::{Field, Hit, Limits, Marcher, Ray};
 use crate::vm::cells::epsilon_at;
 
 impl Marcher {
@@ -14,16 +14,8 @@ impl Marcher {
         field: Field,
         rays: &[Ray],
         limits: Limits,
-        hits: &mut Vec<Hit>,
+        hits: &mut [Hit],
     ) {
-        hits.clear();
-        hits.resize(rays.len(), Hit::Beyond);
-        self.state.clear();
-        self.state.resize(rays.len(), State::default());
-        let unbounded = field.escape.unbounded();
-        for st in &mut self.state {
-            st.keep = unbounded;
-        }
         for interior in [false, true] {
             let tape = match interior {
                 true => field.interior.unwrap_or(field.scene),
