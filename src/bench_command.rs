@@ -5,6 +5,7 @@ use crate::render_command::{extent, parse_size};
 use clap::Args;
 use hyperslice::output::write_atomic;
 use hyperslice::scene::Scene;
+use hyperslice::sweep::corpus;
 use hyperslice::sweep::costs::{self, CostOptions, CostProgress};
 use hyperslice::sweep::{self, Family, Progress, SweepOptions, report, sig};
 use std::path::{Path, PathBuf};
@@ -12,8 +13,9 @@ use std::process::ExitCode;
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// The scene to measure.
-    file: PathBuf,
+    /// The scene to measure (not with --marcher-corpus).
+    #[arg(required_unless_present = "marcher_corpus")]
+    file: Option<PathBuf>,
     /// Image size, as WIDTHxHEIGHT (e.g. 64x48). Default: the scene's (32x24 with --quick).
     #[arg(long, value_parser = parse_size)]
     size: Option<(u32, u32)>,
@@ -52,6 +54,16 @@ pub struct BenchArgs {
     /// samples per pixel, frames, threads and number of objects (costs.csv, costs.md).
     #[arg(long, conflicts_with_all = ["reference", "reference_spp", "spp_list", "families"])]
     costs: bool,
+    /// Time the default marcher against `--marcher plain` on the marcher corpus (the five
+    /// examples, sphere unions of 16 and 1024, a custom field, a tiling, a room of rounded
+    /// boxes, a turned slab and generated scenes), paired and alternating, and print each
+    /// scene's ratio (default / plain) and their geometric mean. Run it from the repository
+    /// root. --repeats sets the renders of each (default 3), --threads the threads (default 2).
+    #[arg(long, conflicts_with_all = ["file", "costs", "reference", "reference_spp", "spp_list", "families", "size", "frames", "quick"])]
+    marcher_corpus: bool,
+    /// With --marcher-corpus: how many generated scenes (seeds 1, 2, ...).
+    #[arg(long, default_value_t = 20, requires = "marcher_corpus", value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    generated: u64,
     /// Shrink everything for a fast check: 32x24, one frame, 1,2,4 spp (a 400-spp reference),
     /// only the draft preset.
     #[arg(long)]
@@ -129,15 +141,66 @@ impl BenchArgs {
 }
 
 pub fn run(args: BenchArgs, color: bool) -> ExitCode {
-    match crate::compile(&args.file, &crate::SceneArgs::default(), color) {
-        Some(scene) => crate::finish(bench(&args, &scene)),
+    let Some(file) = &args.file else {
+        return crate::finish(marcher_corpus(&args));
+    };
+    match crate::compile(file, &crate::SceneArgs::default(), color) {
+        Some(scene) => crate::finish(bench(&args, file, &scene)),
         None => ExitCode::FAILURE,
     }
 }
 
-fn bench(args: &BenchArgs, scene: &Scene) -> hyperslice::error::Result<()> {
-    let stem = args
-        .file
+/// `--marcher-corpus`: the default marcher against the plain one on every corpus scene.
+fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
+    let runs = args.repeats.unwrap_or(3);
+    let threads = match args.threads {
+        Some(0) => None,
+        Some(n) => Some(n as usize),
+        None => Some(2),
+    };
+    let entries = corpus::entries(args.generated);
+    println!("# The marcher corpus: default (auto) against --marcher plain\n");
+    println!("- command: `{}`", command_line());
+    println!("- machine: {}", report::machine());
+    println!(
+        "- {runs} paired render(s) of each scene, alternating, {} thread(s), no denoiser; \
+         times are medians, ratio = default / plain\n",
+        threads.map_or("every".to_string(), |t| t.to_string())
+    );
+    println!(
+        "| scene | default (s) | plain (s) | ratio | out of steps (default) | out of steps (plain) |"
+    );
+    println!("|---|--:|--:|--:|--:|--:|");
+    let mut rows = vec![];
+    for entry in &entries {
+        let scene = entry.scene(Path::new("."))?;
+        let m = corpus::measure(&entry.name, &scene, runs, threads)?;
+        println!(
+            "| {} | {} | {} | {:.2} | {} | {} |",
+            m.name,
+            sig(m.default_s, 3),
+            sig(m.plain_s, 3),
+            m.ratio(),
+            m.default_out_of_steps,
+            m.plain_out_of_steps
+        );
+        rows.push(m);
+    }
+    let worst = rows.iter().max_by(|a, b| a.ratio().total_cmp(&b.ratio()));
+    println!(
+        "\ngeometric mean of the ratios: {:.2}; highest: {}",
+        corpus::geometric_mean(&rows),
+        worst.map_or("none".to_string(), |w| format!(
+            "{} ({:.2})",
+            w.name,
+            w.ratio()
+        ))
+    );
+    Ok(())
+}
+
+fn bench(args: &BenchArgs, file: &Path, scene: &Scene) -> hyperslice::error::Result<()> {
+    let stem = file
         .file_stem()
         .unwrap_or_default()
         .to_string_lossy()
@@ -149,7 +212,7 @@ fn bench(args: &BenchArgs, scene: &Scene) -> hyperslice::error::Result<()> {
     // Fail on an unwritable directory before spending any time rendering.
     report::prepare_out_dir(&out)?;
     if args.costs {
-        return run_costs(args, scene, &out);
+        return run_costs(args, file, scene, &out);
     }
     let mut opts = if args.quick {
         SweepOptions::quick()
@@ -187,7 +250,7 @@ fn bench(args: &BenchArgs, scene: &Scene) -> hyperslice::error::Result<()> {
     };
     eprintln!(
         "bench {}: {}, {} configurations (middle {} spp), {reference}",
-        args.file.display(),
+        file.display(),
         extent(&r),
         configs.len(),
         sweep::middle_spp(&opts.spp_list),
@@ -244,7 +307,12 @@ fn bench(args: &BenchArgs, scene: &Scene) -> hyperslice::error::Result<()> {
 }
 
 /// `--costs`: the cost curves, printed and written as costs.csv and costs.md.
-fn run_costs(args: &BenchArgs, scene: &Scene, out: &Path) -> hyperslice::error::Result<()> {
+fn run_costs(
+    args: &BenchArgs,
+    file: &Path,
+    scene: &Scene,
+    out: &Path,
+) -> hyperslice::error::Result<()> {
     let mut opts = if args.quick {
         CostOptions::quick()
     } else {
@@ -262,7 +330,7 @@ fn run_costs(args: &BenchArgs, scene: &Scene, out: &Path) -> hyperslice::error::
     opts.threads = args.threads(scene);
     eprintln!(
         "cost curves of {}: base {} x {}, {} spp, {} frame(s), median of {} render(s) per point",
-        args.file.display(),
+        file.display(),
         opts.size.0,
         opts.size.1,
         opts.spp,
@@ -276,7 +344,7 @@ fn run_costs(args: &BenchArgs, scene: &Scene, out: &Path) -> hyperslice::error::
     let points = costs::cost_curves(scene, &opts, &mut progress)?;
     let md = format!(
         "# Cost curves: {}\n\n- command: `{}`\n- machine: {}\n- base: {} x {}, {} spp, {} frame(s), no denoiser; each point the median of {} render(s)\n{}",
-        args.file.display(),
+        file.display(),
         command_line(),
         report::machine(),
         opts.size.0,

@@ -68,6 +68,8 @@ pub mod error;
 pub mod farm;
 pub mod film;
 #[doc(hidden)]
+pub mod generate;
+#[doc(hidden)]
 pub mod ir;
 #[doc(hidden)]
 pub mod math;

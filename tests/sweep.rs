@@ -467,3 +467,21 @@ fn the_plot_marks_the_front_and_writes_a_png() {
     assert!(has([255, 127, 14]), "atrous");
     assert!(has([0, 0, 0]), "black");
 }
+
+/// Every scene of the marcher corpus (`bench --marcher-corpus`) compiles from the repository
+/// root at its corpus settings, so the bench cannot lose a scene to a moved file.
+#[test]
+fn every_marcher_corpus_scene_compiles() {
+    use hyperslice::sweep::corpus;
+    let entries = corpus::entries(20);
+    assert_eq!(entries.len(), 31);
+    for e in &entries {
+        let scene = e.scene(std::path::Path::new(".")).expect(&e.name);
+        assert_eq!(
+            scene.render.denoise,
+            hyperslice::scene::Denoise::None,
+            "{}",
+            e.name
+        );
+    }
+}

@@ -884,3 +884,41 @@ fn only_distances_become_exact_spheres() {
         }
     }
 }
+
+/// The default marcher keeps a frame's cells only where its probe shows they pay: not on a D4
+/// tiling alone (7 instructions that nothing prunes, so cells only add bookkeeping), but on a
+/// union of 1024 spheres (cells cut each step to the few spheres nearby), and always where the
+/// whole tape's `f32` coordinates cannot resolve the epsilon (a scene far from the origin).
+#[test]
+fn frames_march_through_cells_only_where_they_pay() {
+    use hyperslice::compile::Compiled;
+    use hyperslice::render::frame::{Features, FrameScene};
+    use hyperslice::render::march::MarcherKind;
+    let far = "render { size = 64 x 48 }\n\
+               camera { from = [1e6, 0, -5, 0]  to = [1e6, 0, 0, 0] }\n\
+               object ball { shape = hypersphere(1) |> translate([1e6, 0, 0, 0]) \
+               material = diffuse(rgb(0.5)) }";
+    let cases = [
+        (
+            Compilation::from_path(Path::new("examples/d4_packing.4ds")),
+            false,
+        ),
+        (
+            Compilation::from_path_with(
+                Path::new("benches/scenes/spheres.4ds"),
+                &["n=32".to_string()],
+            ),
+            true,
+        ),
+        (Compilation::from_source("far.4ds", far), true),
+    ];
+    for (c, cells) in cases {
+        assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+        let scene = c.scene.expect("a scene");
+        let compiled = Compiled::new(&scene);
+        let features = Features::of(&compiled);
+        let fs = FrameScene::for_marcher(&scene, &compiled, features, 0.0, MarcherKind::Auto);
+        let probe = fs.probe.expect("the default marcher probes");
+        assert_eq!(fs.cells.is_some(), cells, "{probe:?}");
+    }
+}

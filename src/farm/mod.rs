@@ -91,7 +91,7 @@ impl Fingerprint {
             // Named only when it is not the default, so films of default renders keep
             // their fingerprints.
             match options.marcher {
-                MarcherKind::Cells => String::new(),
+                MarcherKind::Auto => String::new(),
                 m => format!("  marcher {}", m.name()),
             },
         );

@@ -3,8 +3,9 @@
 
 use super::camera::FrameCamera;
 use super::lights::{Lights, SphereLight};
-use super::march::{Field, MarcherKind};
+use super::march::{Field, Limits, MarcherKind};
 use super::material::{Layout, Medium, Surface};
+use super::probe::Probe;
 use crate::compile::{Compiled, LightPlacement};
 use crate::ir::SceneIr;
 use crate::scene::Scene;
@@ -46,6 +47,8 @@ pub struct FrameScene {
     pub cells: Option<Cells>,
     /// What proves that a ray has left every object.
     pub escape: Escape,
+    /// What the probe that chose the marcher found (`MarcherKind::Auto` only).
+    pub probe: Option<Probe>,
 }
 
 impl FrameScene {
@@ -55,7 +58,8 @@ impl FrameScene {
         FrameScene::for_marcher(scene, compiled, features, t, MarcherKind::Cells)
     }
 
-    /// The frame at `t`, with cells only where `marcher` marches through them.
+    /// The frame at `t`, with cells only where `marcher` marches through them (for `Auto`,
+    /// where the frame's probe shows that they pay: `render::probe`).
     pub fn for_marcher(
         scene: &Scene,
         compiled: &Compiled,
@@ -84,7 +88,7 @@ impl FrameScene {
             scene.render.epsilon,
             marcher,
         );
-        FrameScene {
+        let mut fs = FrameScene {
             t,
             camera,
             cells,
@@ -96,7 +100,27 @@ impl FrameScene {
             medium: Medium::of_material(&scene.medium),
             sky: DVec3::from_array(scene.sky),
             features,
+            probe: None,
+        };
+        if marcher == MarcherKind::Auto {
+            let r = &scene.render;
+            let limits = Limits {
+                epsilon: r.epsilon,
+                max_steps: r.max_steps,
+            };
+            let probe = Probe::run(
+                fs.field(),
+                &fs.camera,
+                &fs.objects,
+                (r.width, r.height),
+                limits,
+            );
+            if !probe.cells_pay() {
+                fs.cells = None;
+            }
+            fs.probe = Some(probe);
         }
+        fs
     }
 }
 

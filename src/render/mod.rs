@@ -16,5 +16,6 @@ pub mod lights;
 pub mod march;
 pub mod material;
 pub mod phase;
+pub mod probe;
 pub mod sampler;
 pub mod sampling;

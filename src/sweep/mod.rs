@@ -16,6 +16,7 @@
 //! [`time_to_error`] reads off a curve how long it takes to reach an error. The results become
 //! CSV, Markdown ([`report`]) and a PNG plot ([`plot`]).
 
+pub mod corpus;
 pub mod costs;
 pub mod plot;
 pub mod report;

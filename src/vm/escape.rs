@@ -35,8 +35,15 @@ impl Escape {
     /// all along means the ray has crossed that surface (by a rounding, at a cell's side),
     /// and it meets it where it is. `keep` holds the unbounded objects the ray may still
     /// meet (bit `i`: the `i`th); once the ray is past the box, those proven out of its way
-    /// leave it.
-    pub fn escapes(&self, p: DVec4, d: DVec4, interior: bool, keep: &mut u64) -> bool {
+    /// leave it. `work` counts the graph nodes bounded, the attempt's cost.
+    pub fn escapes(
+        &self,
+        p: DVec4,
+        d: DVec4,
+        interior: bool,
+        keep: &mut u64,
+        work: &mut u64,
+    ) -> bool {
         // A ray bound for the box cannot escape yet, and is left the intervals until it has
         // passed it: they cost a pass over the unbounded objects' graph, 14% of a tiling's
         // render when every attempt paid it.
@@ -47,6 +54,7 @@ impl Escape {
         let mut rest = true;
         if !self.roots.is_empty() {
             let iv = Intervals::along(&self.graph, p.to_array(), d.to_array());
+            *work += self.graph.len() as u64;
             for (i, r) in self.roots.iter().enumerate() {
                 let x = iv.get(*r);
                 let clear = if interior {

@@ -27,9 +27,12 @@ use lanes::Lanes;
 /// Which marcher a render uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum MarcherKind {
-    /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres
-    /// (the default).
+    /// Through the frame's cells where a probe of rays shows that they pay, plainly where
+    /// they do not (`render::probe`; the default).
     #[default]
+    Auto,
+    /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
+    /// whether or not they pay.
     Cells,
     /// Plain sphere tracing on the whole scene tape: no cells, no relaxation, no exact
     /// shortcuts. The in-process baseline for measurements and tests.
@@ -39,6 +42,7 @@ pub enum MarcherKind {
 impl MarcherKind {
     pub fn name(self) -> &'static str {
         match self {
+            MarcherKind::Auto => "auto",
             MarcherKind::Cells => "cells",
             MarcherKind::Plain => "plain",
         }
@@ -150,6 +154,11 @@ pub struct Marcher {
     next: Vec<u32>,
     /// Rays that need a tape run this step, with their cell's address as the sort key.
     queue: Vec<(usize, u32)>,
+    /// Steps taken (sphere steps, jumps across cells, steps back), for the statistics.
+    pub steps: u64,
+    /// Rays marched, and graph nodes bounded to prove that rays escape (`Escape::escapes`).
+    pub rays: u64,
+    pub bounded: u64,
     /// Distance evaluations (tape lanes and exact evaluations in affine cells), for the
     /// statistics.
     pub evaluations: u64,
@@ -189,6 +198,8 @@ impl Marcher {
             Some(cells) => self.march_cells(cells, field.escape, rays, limits, hits),
             None => self.march_plain(field, rays, limits, hits),
         }
+        self.steps += self.state.iter().map(|s| s.steps as u64).sum::<u64>();
+        self.rays += rays.len() as u64;
     }
 
     fn march_cells(
@@ -227,7 +238,7 @@ impl Marcher {
                         // have ended as a plain one (a relaxed step is checked at the next
                         // point): the proof starts there.
                         let clear = p - r.d * (st.step - st.radius).max(0.0);
-                        if escape.escapes(clear, r.d, r.interior, &mut st.keep) {
+                        if escape.escapes(clear, r.d, r.interior, &mut st.keep, &mut self.bounded) {
                             hits[k] = Hit::Beyond;
                             continue;
                         }

@@ -35,9 +35,13 @@ impl Marcher {
                         return true;
                     }
                     st.escape_at = 2.0 * st.t + 1.0;
-                    !field
-                        .escape
-                        .escapes(r.o + r.d * st.t, r.d, interior, &mut st.keep)
+                    !field.escape.escapes(
+                        r.o + r.d * st.t,
+                        r.d,
+                        interior,
+                        &mut st.keep,
+                        &mut self.bounded,
+                    )
                 });
                 self.next.clear();
                 self.lanes.points.clear();

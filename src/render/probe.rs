@@ -1,0 +1,216 @@
+//! Whether a frame's cells pay for themselves. The cells' marcher saves evaluations (pruned
+//! tapes, exact planes and spheres, jumps over empty cells, relaxed steps) but pays on every
+//! step for finding the ray's cell and grouping rays by cell; where the whole tape is short and
+//! nothing prunes it (a tiling alone) that costs more than it saves. Before a frame renders,
+//! a fixed probe of rays (camera rays through a grid of pixels, then two mirror bounces from
+//! their hits) is marched with both marchers, and the frame keeps its cells only where their
+//! modelled cost is lower. The model counts, not clocks (`Work::cost`), so the choice is the
+//! same in every run, on every machine and whatever the thread count.
+
+use super::camera::FrameCamera;
+use super::frame::FrameObject;
+use super::march::{Field, Hit, Limits, Marcher, Ray};
+use crate::vm::cells::epsilon_at;
+use crate::vm::{Dual, LANES, Regs};
+use glam::DVec4;
+
+/// Most columns of the probe's grid of camera rays (its rows follow the image's aspect); a
+/// quarter of the image's, on small images, so that the probe costs little beside them.
+const COLUMNS: u32 = 24;
+/// Mirror bounces followed from each camera ray's hit.
+const BOUNCES: usize = 2;
+
+/// What marching the probe cost one marcher, in counts (`Marcher`'s).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Work {
+    pub rays: u64,
+    /// Graph nodes bounded to prove that rays escape (`Escape::escapes`).
+    pub bounded: u64,
+    pub steps: u64,
+    pub evaluations: u64,
+    pub instructions: u64,
+    pub out_of_steps: u64,
+}
+
+impl Work {
+    /// Marching time in nanoseconds, modelled from the counts with one marcher's weights.
+    fn cost(&self, w: &Weights) -> f64 {
+        w.ray * self.rays as f64
+            + w.step * self.steps as f64
+            + w.instruction * self.instructions as f64
+            + w.bounded * self.bounded as f64
+    }
+}
+
+/// What each count costs a marcher, in nanoseconds on the 2-core development machine: a ray's
+/// set-up, a step's bookkeeping (for the cells, finding the cell and grouping rays by cell), a
+/// tape instruction per lane (the cells' groups are small, so their runs are narrow and dearer
+/// per lane), a node bounded for an escape proof. Fitted (non-negative least squares, relative
+/// error) to both marchers timed alone on the probe rays of 50 scenes: the examples, sphere
+/// unions, a custom field, a tiling, a turned slab and 40 generated scenes
+/// (`docs/performance.md`, "Cells only where they pay"). Evaluations took no weight of their
+/// own. Only the ratio of the two costs matters, so the machine's speed drops out.
+struct Weights {
+    ray: f64,
+    step: f64,
+    instruction: f64,
+    bounded: f64,
+}
+
+const CELLS: Weights = Weights {
+    ray: 107.0,
+    step: 39.0,
+    instruction: 0.77,
+    bounded: 19.0,
+};
+
+const PLAIN: Weights = Weights {
+    ray: 53.0,
+    step: 14.0,
+    instruction: 0.16,
+    bounded: 21.0,
+};
+
+/// The probe's outcome: what each marcher's march of it cost.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Probe {
+    pub cells: Work,
+    pub plain: Work,
+    /// The plain marcher resolves the epsilon at every point the probe met (`f32` coordinates
+    /// of the whole tape; the cells resolve it locally).
+    pub resolved: bool,
+}
+
+impl Probe {
+    /// March the probe through `cells` (a frame's field with cells) and the same field without
+    /// them, for an image of `width` x `height`.
+    pub fn run(
+        cells: Field,
+        camera: &FrameCamera,
+        objects: &[FrameObject],
+        (width, height): (u32, u32),
+        limits: Limits,
+    ) -> Probe {
+        let plain = Field {
+            cells: None,
+            ..cells
+        };
+        let columns = (width / 4).clamp(1, COLUMNS);
+        let rows = (columns * height / width.max(1)).max(1);
+        let mut rays: Vec<Ray> = (0..columns * rows)
+            .map(|i| Ray {
+                o: camera.position,
+                d: camera.direction(
+                    (i % columns) as f64 + 0.5,
+                    (i / columns) as f64 + 0.5,
+                    columns,
+                    rows,
+                ),
+                tmax: f64::INFINITY,
+                interior: false,
+            })
+            .collect();
+        let mut probe = Probe {
+            cells: Work::default(),
+            plain: Work::default(),
+            resolved: epsilon_at(camera.position, limits.epsilon) <= limits.epsilon,
+        };
+        let (mut marcher, mut hits) = (Marcher::default(), vec![]);
+        let mut grad = Regs { r: vec![] };
+        for generation in 0..=BOUNCES {
+            march(
+                &mut marcher,
+                cells,
+                &rays,
+                limits,
+                &mut hits,
+                &mut probe.cells,
+            );
+            let mut plain_hits = vec![];
+            march(
+                &mut marcher,
+                plain,
+                &rays,
+                limits,
+                &mut plain_hits,
+                &mut probe.plain,
+            );
+            if generation == BOUNCES {
+                break;
+            }
+            rays = bounce(
+                &rays,
+                &hits,
+                objects,
+                &mut grad,
+                limits,
+                &mut probe.resolved,
+            );
+        }
+        probe
+    }
+
+    /// Whether the frame should march through its cells: they cost less than plain marching,
+    /// or plain marching would lose rays to the step limit or to `f32` that they do not.
+    pub fn cells_pay(&self) -> bool {
+        !self.resolved
+            || self.plain.out_of_steps > self.cells.out_of_steps
+            || self.cells.cost(&CELLS) <= self.plain.cost(&PLAIN)
+    }
+}
+
+/// March `rays` through `field`, adding what it cost to `work`.
+fn march(
+    marcher: &mut Marcher,
+    field: Field,
+    rays: &[Ray],
+    limits: Limits,
+    hits: &mut Vec<Hit>,
+    work: &mut Work,
+) {
+    let before = (marcher.steps, marcher.evaluations, marcher.instructions);
+    let (rays_before, bounded_before) = (marcher.rays, marcher.bounded);
+    marcher.march(field, rays, limits, hits);
+    work.rays += marcher.rays - rays_before;
+    work.bounded += marcher.bounded - bounded_before;
+    work.steps += marcher.steps - before.0;
+    work.evaluations += marcher.evaluations - before.1;
+    work.instructions += marcher.instructions - before.2;
+    work.out_of_steps += hits.iter().filter(|h| **h == Hit::OutOfSteps).count() as u64;
+}
+
+/// The mirror bounces of the rays that hit a surface, from just outside it; notes whether the
+/// plain marcher resolves the epsilon at each hit.
+fn bounce(
+    rays: &[Ray],
+    hits: &[Hit],
+    objects: &[FrameObject],
+    grad: &mut Regs<Dual, LANES>,
+    limits: Limits,
+    resolved: &mut bool,
+) -> Vec<Ray> {
+    let mut out = vec![];
+    for (r, h) in rays.iter().zip(hits) {
+        let Hit::Surface { t, object } = *h else {
+            continue;
+        };
+        let p = r.o + r.d * t;
+        let eps = epsilon_at(p, limits.epsilon);
+        *resolved &= eps <= limits.epsilon;
+        let point = [p.as_vec4().to_array()];
+        let g = crate::vm::gradient(&objects[object].distance, grad, &point, 0.0)[0];
+        let n = DVec4::from_array(g.g.map(f64::from)).normalize_or_zero();
+        // Facing the ray, whichever side of the surface it came from.
+        let n = if n.dot(r.d) > 0.0 { -n } else { n };
+        if n == DVec4::ZERO {
+            continue;
+        }
+        out.push(Ray {
+            o: p + n * (4.0 * eps),
+            d: (r.d - 2.0 * r.d.dot(n) * n).normalize(),
+            tmax: f64::INFINITY,
+            interior: false,
+        });
+    }
+    out
+}
