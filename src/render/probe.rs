@@ -19,6 +19,8 @@ use glam::DVec4;
 const COLUMNS: u32 = 24;
 /// Mirror bounces followed from each camera ray's hit.
 const BOUNCES: usize = 2;
+/// The shares the plain march of the probe is taken in.
+const SHARES: usize = 8;
 
 /// What marching the probe cost one marcher, in counts (`Marcher`'s).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -71,7 +73,8 @@ const PLAIN: Weights = Weights {
     bounded: 21.0,
 };
 
-/// The probe's outcome: what each marcher's march of it cost.
+/// The probe's outcome: what each marcher's march of it cost (the plain march only as far as
+/// it went: it stops once it costs more than the cells').
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
     pub cells: Work,
@@ -117,6 +120,7 @@ impl Probe {
         };
         let (mut marcher, mut hits) = (Marcher::default(), vec![]);
         let mut grad = Regs { r: vec![] };
+        let mut all = vec![];
         for generation in 0..=BOUNCES {
             march(
                 &mut marcher,
@@ -126,15 +130,7 @@ impl Probe {
                 &mut hits,
                 &mut probe.cells,
             );
-            let mut plain_hits = vec![];
-            march(
-                &mut marcher,
-                plain,
-                &rays,
-                limits,
-                &mut plain_hits,
-                &mut probe.plain,
-            );
+            all.extend_from_slice(&rays);
             if generation == BOUNCES {
                 break;
             }
@@ -146,6 +142,24 @@ impl Probe {
                 limits,
                 &mut probe.resolved,
             );
+        }
+        // Plainly, an eighth of the rays at a time, and no more once that costs more than
+        // the cells' whole march: the cells pay whatever the rest would cost, and a plain
+        // march of a dense union is most of what the probe would spend.
+        let cells_cost = probe.cells.cost(&CELLS);
+        for k in 0..SHARES {
+            let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
+            march(
+                &mut marcher,
+                plain,
+                &share,
+                limits,
+                &mut hits,
+                &mut probe.plain,
+            );
+            if probe.plain.cost(&PLAIN) > cells_cost {
+                break;
+            }
         }
         probe
     }
