@@ -75,8 +75,9 @@ pub struct RenderArgs {
     /// Sobol sequence per pixel.
     #[arg(long, value_enum, default_value_t)]
     sampler: SamplerKind,
-    /// How rays are marched: through the frame's pruned cells, or plainly on the whole scene
-    /// tape (the baseline the cells are measured against; slower, never the default).
+    /// How rays are marched: through the frame's pruned cells where a probe of rays shows that
+    /// they pay (auto), through them always (cells), or plainly on the whole scene tape
+    /// (plain: the baseline the others are measured against).
     #[arg(long, value_enum, default_value_t)]
     marcher: MarcherKind,
     /// Render only frame N of the scene's animation (0-based; `t` as in the whole animation).

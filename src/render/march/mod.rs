@@ -27,8 +27,8 @@ use lanes::Lanes;
 /// Which marcher a render uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum MarcherKind {
-    /// Through the frame's cells where a probe of rays shows that they pay, plainly where
-    /// they do not (`render::probe`; the default).
+    /// Through the frame's cells where a probe of a few hundred rays shows that they pay,
+    /// plainly where they do not (the default).
     #[default]
     Auto,
     /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
