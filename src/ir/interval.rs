@@ -157,6 +157,14 @@ pub struct Intervals {
     outs: Vec<I>,
 }
 
+/// The buffers of `Intervals::along`, kept between rays: an escape proof is tried for many
+/// rays, and allocating them each time was a sixth of its cost.
+#[derive(Default)]
+pub struct Along {
+    iv: Intervals,
+    lines: Vec<Line>,
+}
+
 /// A node's value along a ray as `base + slope * s` for every `s >= 0` (the distance from the
 /// ray's start): exact for the linear parts of a graph (planes, turned and moved points).
 #[derive(Clone, Copy, Debug)]
@@ -263,11 +271,11 @@ fn pick(min: bool, a: Line, b: Line, margin: f64) -> Option<Line> {
 }
 
 impl Intervals {
-    /// Bounds of every node over the ray from `o` along `d` (`s >= 0`): linear parts are
-    /// followed exactly along it, the rest bounded over the values their operands take there.
-    /// At least as tight as bounds over the box the ray spans, and tighter wherever the ray's
-    /// coordinates are correlated (a plane turned out of the axes).
-    pub fn along(g: &Graph, o: [f64; 4], d: [f64; 4]) -> Intervals {
+    /// Bounds of every node over the ray from `o` along `d` (`s >= 0`), in `along`'s buffers:
+    /// linear parts are followed exactly along it, the rest bounded over the values their
+    /// operands take there. At least as tight as bounds over the box the ray spans, and tighter
+    /// wherever the ray's coordinates are correlated (a plane turned out of the axes).
+    pub fn along<'a>(along: &'a mut Along, g: &Graph, o: [f64; 4], d: [f64; 4]) -> &'a Intervals {
         let span = |a: usize| {
             Line {
                 base: I::point(o[a]),
@@ -279,12 +287,17 @@ impl Intervals {
             a @ 0..4 => span(a),
             _ => I::ALL,
         };
-        let mut iv = Intervals::default();
-        let mut lines: Vec<Line> = Vec::with_capacity(g.len());
+        let Along { iv, lines } = along;
+        (
+            iv.vals.clear(),
+            iv.start.clear(),
+            iv.outs.clear(),
+            lines.clear(),
+        );
         for i in 0..g.len() {
             let n = g.get(Id(i as u32));
             let outs = iv.outs.len();
-            let l = match line(n, &lines, o, d) {
+            let l = match line(n, lines, o, d) {
                 Some(l) => l,
                 None => Line {
                     base: iv.node(n, &vars),

@@ -183,10 +183,10 @@ fn march(
     work: &mut Work,
 ) {
     let before = (marcher.steps, marcher.evaluations, marcher.instructions);
-    let (rays_before, bounded_before) = (marcher.rays, marcher.bounded);
+    let (rays_before, bounded_before) = (marcher.rays, marcher.proofs.bounded);
     marcher.march(field, rays, limits, hits);
     work.rays += marcher.rays - rays_before;
-    work.bounded += marcher.bounded - bounded_before;
+    work.bounded += marcher.proofs.bounded - bounded_before;
     work.steps += marcher.steps - before.0;
     work.evaluations += marcher.evaluations - before.1;
     work.instructions += marcher.instructions - before.2;

@@ -3,7 +3,7 @@
 //! (the cells' and the plain one) end a ray at the sky only on this proof, never by
 //! travelling far.
 
-use crate::ir::interval::Intervals;
+use crate::ir::interval::{Along, Intervals};
 use crate::ir::{Graph, Id};
 use glam::DVec4;
 
@@ -35,14 +35,14 @@ impl Escape {
     /// all along means the ray has crossed that surface (by a rounding, at a cell's side),
     /// and it meets it where it is. `keep` holds the unbounded objects the ray may still
     /// meet (bit `i`: the `i`th); once the ray is past the box, those proven out of its way
-    /// leave it. `work` counts the graph nodes bounded, the attempt's cost.
+    /// leave it. `proofs` holds the bounds' buffers and counts the nodes bounded.
     pub fn escapes(
         &self,
         p: DVec4,
         d: DVec4,
         interior: bool,
         keep: &mut u64,
-        work: &mut u64,
+        proofs: &mut Proofs,
     ) -> bool {
         // A ray bound for the box cannot escape yet, and is left the intervals until it has
         // passed it: they cost a pass over the unbounded objects' graph, 14% of a tiling's
@@ -53,8 +53,8 @@ impl Escape {
         // Objects past the mask's 64 bits count only when all are out of the way.
         let mut rest = true;
         if !self.roots.is_empty() {
-            let iv = Intervals::along(&self.graph, p.to_array(), d.to_array());
-            *work += self.graph.len() as u64;
+            let iv = Intervals::along(&mut proofs.along, &self.graph, p.to_array(), d.to_array());
+            proofs.bounded += self.graph.len() as u64;
             for (i, r) in self.roots.iter().enumerate() {
                 let x = iv.get(*r);
                 let clear = if interior {
@@ -79,6 +79,14 @@ impl Escape {
             _ => u64::MAX,
         }
     }
+}
+
+/// A marcher's scratch space for escape proofs, and their cost so far.
+#[derive(Default)]
+pub struct Proofs {
+    along: Along,
+    /// Graph nodes bounded to prove that rays escape, for the statistics.
+    pub bounded: u64,
 }
 
 /// Where the ray from `p` along `d` first meets the box `lo..hi`, if it does (slab test,

@@ -20,7 +20,7 @@ mod plain;
 use crate::ir::exact::Piece;
 use crate::vm::Tape;
 use crate::vm::cells::{Cell, Cells};
-use crate::vm::escape::Escape;
+use crate::vm::escape::{Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
 
@@ -156,9 +156,10 @@ pub struct Marcher {
     queue: Vec<(usize, u32)>,
     /// Steps taken (sphere steps, jumps across cells, steps back), for the statistics.
     pub steps: u64,
-    /// Rays marched, and graph nodes bounded to prove that rays escape (`Escape::escapes`).
+    /// Rays marched, for the statistics.
     pub rays: u64,
-    pub bounded: u64,
+    /// Escape proofs' buffers, and the nodes they bounded.
+    pub proofs: Proofs,
     /// Distance evaluations (tape lanes and exact evaluations in affine cells), for the
     /// statistics.
     pub evaluations: u64,
@@ -238,7 +239,7 @@ impl Marcher {
                         // have ended as a plain one (a relaxed step is checked at the next
                         // point): the proof starts there.
                         let clear = p - r.d * (st.step - st.radius).max(0.0);
-                        if escape.escapes(clear, r.d, r.interior, &mut st.keep, &mut self.bounded) {
+                        if escape.escapes(clear, r.d, r.interior, &mut st.keep, &mut self.proofs) {
                             hits[k] = Hit::Beyond;
                             continue;
                         }
