@@ -288,12 +288,10 @@ impl Intervals {
             _ => I::ALL,
         };
         let Along { iv, lines } = along;
-        (
-            iv.vals.clear(),
-            iv.start.clear(),
-            iv.outs.clear(),
-            lines.clear(),
-        );
+        iv.vals.clear();
+        iv.start.clear();
+        iv.outs.clear();
+        lines.clear();
         for i in 0..g.len() {
             let n = g.get(Id(i as u32));
             let outs = iv.outs.len();
