@@ -416,11 +416,9 @@ fn soak(seed: u64, n: u64, kind: MarcherKind) -> (Tally, Vec<(u64, String)>) {
 }
 
 /// Scenes among the first 300 on which the cells' marcher is still wrong (open faults of
-/// the marcher issue; each also fails alone with `SOAK_FROM=N SOAK_COUNT=1`): 1 (interior
-/// rays of a tiled glass far from the origin leave where the reference meets a surface).
-/// The plain marcher gets it right. CI fails on any other scene, and once one of these is
-/// fixed it must leave this list.
-const KNOWN: [u64; 1] = [1];
+/// the marcher issue; each also fails alone with `SOAK_FROM=N SOAK_COUNT=1`): none now. CI
+/// fails on any other scene, and once one of these is fixed it must leave this list.
+const KNOWN: [u64; 0] = [];
 
 /// Segments out of steps that CI tolerates on the first 300 scenes, per 100,000 (measured:
 /// 91); the soak holds the cells' marcher to the goal, 1.
