@@ -77,6 +77,8 @@ impl Truth<'_> {
 /// What went wrong with one ray, for the report.
 #[derive(Debug)]
 struct Fault {
+    /// Which rays: camera, bounce, shadow or interior.
+    kind: &'static str,
     ray: Ray,
     fast: Hit,
     why: String,
@@ -86,7 +88,19 @@ struct Fault {
 struct Tally {
     segments: u64,
     out_of_steps: u64,
+    /// The kinds of the rays out of steps.
+    stuck: Vec<&'static str>,
     faults: Vec<Fault>,
+}
+
+/// Which rays `r` is among: camera, bounce, shadow (to a point, so finite) or interior.
+fn kind(r: &Ray, camera: DVec4) -> &'static str {
+    match (r.interior, r.tmax.is_finite(), r.o == camera) {
+        (true, ..) => "interior",
+        (_, true, _) => "shadow",
+        (_, _, true) => "camera",
+        _ => "bounce",
+    }
 }
 
 /// March `rays` through the frame with `kind`, and check every result against the truth.
@@ -110,6 +124,7 @@ fn check(
         let far = 50.0 * (scale + (r.o - fs.camera.position).length()) + 1e3 * scale;
         let mut fault = |why: String| {
             tally.faults.push(Fault {
+                kind: kind(r, fs.camera.position),
                 ray: *r,
                 fast: h,
                 why,
@@ -118,7 +133,10 @@ fn check(
         // The first root, approached from before it: a trace to a thousandth of the epsilon.
         let first = truth.first(root, r, eps * 1e-3, far);
         match h {
-            Hit::OutOfSteps => tally.out_of_steps += 1,
+            Hit::OutOfSteps => {
+                tally.out_of_steps += 1;
+                tally.stuck.push(kind(r, fs.camera.position));
+            }
             Hit::Surface { t, object } => {
                 let p = r.o + r.d * t;
                 // The cells resolve the epsilon; far from every cell's origin `f32` needs more.
@@ -233,7 +251,11 @@ fn soak(seed: u64, n: u64, kind: MarcherKind) -> (Tally, Vec<(u64, String)>) {
     let mut total = Tally::default();
     let mut failures = vec![];
     for s in seed..seed + n {
-        let g = generate(s);
+        let mut g = generate(s);
+        // A scene being shrunk by hand, from a file, in place of the generated one.
+        if let Ok(path) = std::env::var("SOAK_SCENE") {
+            g.source = std::fs::read_to_string(path).expect("SOAK_SCENE names a scene file");
+        }
         let mut tally = Tally::default();
         run_scene(&g, kind, &mut tally);
         if !tally.faults.is_empty() {
@@ -244,28 +266,34 @@ fn soak(seed: u64, n: u64, kind: MarcherKind) -> (Tally, Vec<(u64, String)>) {
                 g.source
             );
             for f in tally.faults.iter().take(3) {
-                writeln!(report, "  {:?} -> {:?}: {}", f.ray, f.fast, f.why).unwrap();
+                writeln!(
+                    report,
+                    "  {} {:?} -> {:?}: {}",
+                    f.kind, f.ray, f.fast, f.why
+                )
+                .unwrap();
             }
             failures.push((s, report));
         }
+        if tally.out_of_steps > 0 && std::env::var("SOAK_STUCK").is_ok() {
+            eprintln!("stuck {s} {:?}:\n{}", tally.stuck, g.source);
+        }
         total.segments += tally.segments;
         total.out_of_steps += tally.out_of_steps;
+        total.stuck.extend(tally.stuck);
         total.faults.extend(tally.faults);
     }
     (total, failures)
 }
 
 /// Scenes among the first 300 on which the cells' marcher is still wrong (open faults of
-/// the marcher issue; each also fails alone with `SOAK_FROM=N SOAK_COUNT=1`): 1 (interior
-/// rays of a tiled glass far from the origin leave where the reference meets a surface), 92
-/// (camera rays through smooth CSG of custom fields miss), 283 (a hit past the first root at
-/// scale 1e4). The plain marcher gets all three right. CI fails on any other scene, and once
-/// one of these is fixed it must leave this list.
-const KNOWN: [u64; 3] = [1, 92, 283];
+/// the marcher issue; each also fails alone with `SOAK_FROM=N SOAK_COUNT=1`): none now. CI
+/// fails on any other scene, and once one of these is fixed it must leave this list.
+const KNOWN: [u64; 0] = [];
 
 /// Segments out of steps that CI tolerates on the first 300 scenes, per 100,000 (measured:
-/// 203); the soak holds the cells' marcher to the goal, 1.
-const CI_OUT_OF_STEPS: u64 = 250;
+/// 91); the soak holds the cells' marcher to the goal, 1.
+const CI_OUT_OF_STEPS: u64 = 100;
 
 fn assert_sound(kind: MarcherKind, from: u64, n: u64) {
     let (tally, failures, known) = tally(kind, from, n);
@@ -296,7 +324,8 @@ fn tally(kind: MarcherKind, from: u64, n: u64) -> (Tally, Vec<String>, Vec<u64>)
         failures.len()
     );
     eprintln!("known to fail: {known:?}");
-    for (_, f) in failures.iter().take(5) {
+    let show = std::env::var("SOAK_SHOW").ok().and_then(|v| v.parse().ok());
+    for (_, f) in failures.iter().take(show.unwrap_or(5)) {
         eprintln!("{f}");
     }
     let failures = failures.into_iter().map(|(_, f)| f).collect();
@@ -326,8 +355,45 @@ fn the_plain_marcher_agrees_with_the_reference() {
     assert!(wrong == 0, "{wrong} scenes disagree");
 }
 
+/// Failures of the soak, shrunk to a few lines each (`tests/in/marcher/`, each saying what
+/// went wrong; `// scale = X` sets the scale the harness checks at, 1 unless given): both
+/// marchers agree with the reference on every one, with no ray out of steps.
+#[test]
+fn shrunk_scenes_agree_with_the_reference() {
+    let mut files: Vec<_> = (std::fs::read_dir("tests/in/marcher").unwrap())
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|x| x == "4ds"))
+        .collect();
+    files.sort();
+    assert!(!files.is_empty());
+    for file in files {
+        let source = std::fs::read_to_string(&file).unwrap();
+        let scale = (source.lines())
+            .find_map(|l| l.strip_prefix("// scale = "))
+            .map_or(1.0, |x| x.trim().parse().expect("a scale"));
+        let g = Generated { source, scale };
+        for kind in [MarcherKind::Cells, MarcherKind::Plain] {
+            let mut tally = Tally::default();
+            run_scene(&g, kind, &mut tally);
+            assert!(
+                tally.faults.is_empty() && tally.out_of_steps == 0,
+                "{} ({}): {} of {} rays wrong, {} out of steps; first {:?}",
+                file.display(),
+                kind.name(),
+                tally.faults.len(),
+                tally.segments,
+                tally.out_of_steps,
+                tally.faults.first()
+            );
+        }
+    }
+}
+
 /// `SOAK_FROM`, `SOAK_COUNT` and `SOAK_MARCHER` (cells or plain) choose the scenes and the
-/// marcher: `SOAK_FROM=92 SOAK_COUNT=1` reruns one scene.
+/// marcher: `SOAK_FROM=92 SOAK_COUNT=1` reruns one scene. `SOAK_SHOW=N` prints the first N
+/// failing scenes, `SOAK_STUCK=1` every scene with rays out of steps (and their kinds), and
+/// `SOAK_SCENE=FILE` marches that scene instead of the generated one (with its scale), to
+/// shrink a failure by hand.
 #[test]
 #[ignore = "10,000 scenes: cargo test --release -- --ignored soak"]
 fn soak_generated_scenes() {

@@ -407,11 +407,11 @@ impl Intervals {
             // Smooth min is nondecreasing in a and b and nonincreasing in k.
             Node::SMin(a, b, kk) => {
                 let (a, b, kk) = (g(a), g(b), g(kk));
-                return I::new(k::smin(a.lo, b.lo, kk.hi), k::smin(a.hi, b.hi, kk.lo));
+                return I::new(smin(a.lo, b.lo, kk.hi), smin(a.hi, b.hi, kk.lo));
             }
             Node::SMax(a, b, kk) => {
                 let (a, b, kk) = (g(a), g(b), g(kk));
-                return I::new(-k::smin(-a.lo, -b.lo, kk.lo), -k::smin(-a.hi, -b.hi, kk.hi));
+                return I::new(-smin(-a.lo, -b.lo, kk.lo), -smin(-a.hi, -b.hi, kk.hi));
             }
             Node::D4(v) => {
                 let v = v4(v);
@@ -448,6 +448,18 @@ impl Intervals {
         };
         self.outs.extend(tuple);
         I::ALL
+    }
+}
+
+/// The smooth min at bounds, which may be infinite: where an operand is, the blend is zero
+/// and it is the plain min (the kernel's `|a - b|` is NaN for two alike infinities, and a
+/// NaN bound of a halfspace's blend over all space read as a min's `+inf` cut it from the
+/// cells outside the cube).
+fn smin(a: f64, b: f64, kk: f64) -> f64 {
+    if a.is_infinite() || b.is_infinite() {
+        a.min(b)
+    } else {
+        k::smin(a, b, kk)
     }
 }
 

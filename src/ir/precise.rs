@@ -14,7 +14,7 @@
 //! `f64`, and intervals bound them more tightly); only the tapes use these.
 
 use super::interval::{I, Intervals};
-use super::{Bin, Graph, Id, K, Node, Var};
+use super::{Bin, Graph, Id, K, Node, Un, Var};
 
 /// The rounding of one `f32` operation, relative to the size of its result.
 const ULP: f64 = 1.0 / (1u64 << 24) as f64;
@@ -155,4 +155,125 @@ fn fold_face(r: &mut [f64; 9], a: usize, s: I) {
     };
     r[a] = sign * m;
     r[4 + a] = m - sign * o + h;
+}
+
+/// A bound of how far `f32` evaluation of `root` of `g` strays from its exact value for
+/// points in `region` (in `f32` already, so rounded like the tape's inputs): each operation
+/// rounds its result by `ULP` of it and passes its operands' errors on as far as its slope
+/// over the region allows. Infinite where that is unknown (a discontinuous step, a division
+/// by what may be zero).
+pub fn rounding(g: &Graph, root: Id, region: [I; 4]) -> f64 {
+    let live = g.live(&[root]);
+    let vars = |v: Var| match v {
+        Var::X | Var::Y | Var::Z | Var::W => region[v.index()],
+        Var::NX | Var::NY | Var::NZ | Var::NW => I::new(-1.0, 1.0),
+        Var::T => I::ALL,
+    };
+    let iv = Intervals::of(g, &vars, Some(&live));
+    let size = |x: I| x.lo.abs().max(x.hi.abs());
+    // Scalars' errors by node, and the outputs' of tuples.
+    let mut err = vec![0.0f64; g.len()];
+    let mut outs: Vec<[f64; 8]> = vec![[0.0; 8]; g.len()];
+    for i in (0..g.len()).filter(|i| live[*i]) {
+        let n = g.get(Id(i as u32));
+        let (e, m) = (|x: Id| err[x.0 as usize], |x: Id| size(iv.get(x)));
+        let round = ULP * size(iv.get(Id(i as u32)));
+        err[i] = match n {
+            Node::Var(v) => ULP * size(vars(v)),
+            // The running min's start, +infinity, is exact.
+            Node::Const(k) if k.get().is_infinite() => 0.0,
+            Node::Const(k) => ULP * k.get().abs(),
+            Node::Un(op, a) => match op {
+                Un::Neg | Un::Abs => e(a),
+                // 1-Lipschitz.
+                Un::Sin | Un::Cos | Un::Atan => e(a) + round,
+                Un::Sqrt => {
+                    let lo = iv.get(a).lo.max(0.0).sqrt();
+                    (e(a) / (2.0 * lo)).min(e(a).sqrt()) + round
+                }
+                _ => f64::INFINITY,
+            },
+            Node::Bin(op, a, b) => match op {
+                Bin::Add | Bin::Sub => e(a) + e(b) + round,
+                Bin::Mul => m(a) * e(b) + m(b) * e(a) + e(a) * e(b) + round,
+                Bin::Div => {
+                    let (x, y) = (iv.get(b), e(b));
+                    let least = if x.excludes_zero() {
+                        x.lo.abs().min(x.hi.abs())
+                    } else {
+                        0.0
+                    };
+                    if least > y {
+                        (e(a) + m(a) / least * y) / (least - y) + round
+                    } else {
+                        f64::INFINITY
+                    }
+                }
+                Bin::Min | Bin::Max => e(a).max(e(b)),
+                _ => f64::INFINITY,
+            },
+            // Decided in the region, or not continuous.
+            Node::Select(c, a, b) => match iv.get(c) {
+                c if c.excludes_zero() => e(a),
+                c if c == I::point(0.0) => e(b),
+                _ => f64::INFINITY,
+            },
+            // The operands' errors through a 1-Lipschitz norm, and the rounding of the sum
+            // of squares, the root and the subtraction (a few ulps of the length).
+            Node::Length(v, r) => {
+                let len = (0..4).map(|a| m(v[a]) + r[a].get().abs()).sum::<f64>();
+                (0..4).map(|a| e(v[a])).sum::<f64>() + 4.0 * ULP * (len + r[4].get().abs())
+            }
+            Node::Affine(v, r) => {
+                let terms = (0..4).map(|a| r[a].get().abs() * m(v[a])).sum::<f64>();
+                (0..4).map(|a| r[a].get().abs() * e(v[a])).sum::<f64>()
+                    + 4.0 * ULP * (terms + r[4].get().abs())
+            }
+            // Through the faces that can be outside or the largest (the others are neither,
+            // however large), and a few ulps of the length and the rounding.
+            Node::BoxDist(v, r) => {
+                let r = r.map(K::get);
+                let q: [I; 4] = std::array::from_fn(|a| {
+                    let u = iv.get(v[a]);
+                    let u = I::new(u.lo + r[a], u.hi + r[a]);
+                    // |u| over the region.
+                    let least = match u.excludes_zero() {
+                        true => u.lo.abs().min(u.hi.abs()),
+                        false => 0.0,
+                    };
+                    I::new(least - r[4 + a], size(u) - r[4 + a])
+                });
+                let top = q.iter().map(|x| x.lo).fold(f64::NEG_INFINITY, f64::max);
+                let len = q.iter().map(|x| x.hi.max(0.0).powi(2)).sum::<f64>().sqrt();
+                (0..4)
+                    .filter(|&a| q[a].hi > 0.0 || q[a].hi >= top)
+                    .map(|a| e(v[a]) + ULP * (2.0 * (m(v[a]) + r[a].abs()) + r[4 + a].abs()))
+                    .sum::<f64>()
+                    + 4.0 * ULP * (len + r[8].abs())
+                    + round
+            }
+            // 1-Lipschitz in both operands together; the blend rounds like its operands.
+            Node::SMin(a, b, k) | Node::SMax(a, b, k) => {
+                e(a).max(e(b)) + 4.0 * ULP * (m(a).max(m(b)) + m(k))
+            }
+            Node::D4(v) => {
+                let most = (0..4).map(|a| e(v[a]) + 2.0 * ULP * m(v[a]));
+                let most = most.fold(0.0, f64::max);
+                outs[i] = [most, most, most, most, 0.0, 0.0, 0.0, 0.0];
+                0.0
+            }
+            // The offset from the cell centre is continuous where the distance reads it
+            // (a tiling's is symmetric about the cells' sides).
+            Node::Rep(a, _) => {
+                outs[i] = [e(a) + 2.0 * ULP * m(a), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+                0.0
+            }
+            Node::MinId(best, _, d, _) => {
+                outs[i] = [e(best).max(e(d)), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+                0.0
+            }
+            Node::Proj(t, j) => outs[t.0 as usize][j as usize],
+        };
+    }
+    err[root.0 as usize]
 }

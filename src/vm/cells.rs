@@ -82,6 +82,9 @@ pub struct Cell {
     /// The tapes are exact where the distance is below this; above it they give a lower
     /// bound of it, itself at least this (`REACH`).
     pub reach: f64,
+    /// How far `f32` may round the interior tape's distance in the cell (`ir::precise::
+    /// rounding`; 0 without one, infinite where unknown).
+    rounding: f64,
     /// Where the distance is not, but some objects' are: rays outside objects meet those
     /// exactly and step on the others alone (`partial`, built when a ray first needs it:
     /// rays march only in cells without children).
@@ -425,6 +428,11 @@ impl Cell {
         let tapes = precise.as_ref().unwrap_or(&pr.graph);
         let scene = Tape::compile("scene", tapes, &roots[..2]);
         let interior = (needs.interior).then(|| Tape::compile("interior", tapes, &roots[2..4]));
+        let rounding = if needs.interior {
+            crate::ir::precise::rounding(tapes, roots[2], region)
+        } else {
+            0.0
+        };
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
         let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
         let len = scene.code.len() + interior.as_ref().map_or(0, |t| t.code.len());
@@ -451,6 +459,7 @@ impl Cell {
             interior,
             objects: OnceLock::new(),
             reach,
+            rounding,
             lower,
             exact,
             partial: OnceLock::new(),
@@ -498,9 +507,18 @@ impl Cell {
     /// marching `epsilon`, or more where the cell's `f32` tapes cannot resolve it at `p`.
     /// Exact pieces, which rays outside objects meet, are evaluated in `f64`, which resolves
     /// it.
+    ///
+    /// Rays inside objects also resolve no less than twice the bound of the interior tape's
+    /// rounding in the cell (a step overshoots a surface by that at most): their unsigned
+    /// distance shows no sign change where a step crosses a surface, so one that never
+    /// rounds below the epsilon (a rounded box's edge of radius 1e3, a length of 1e3 less the
+    /// radius) let rays through it. Rays outside objects see the crossing as a negative
+    /// distance.
     pub fn epsilon(&self, p: DVec4, epsilon: f64, interior: bool) -> f64 {
         if self.exact.is_some() && !interior {
             epsilon
+        } else if interior && self.rounding.is_finite() {
+            epsilon_at(p - self.origin, epsilon).max(self.rounding)
         } else {
             epsilon_at(p - self.origin, epsilon)
         }
