@@ -176,25 +176,29 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
         let scene = entry.scene(Path::new("."))?;
         let m = corpus::measure(&entry.name, &scene, runs, threads)?;
         println!(
-            "| {} | {} | {} | {:.2} | {} | {} |",
+            "| {} | {} | {} | {:.2} | {} | {} | {} |",
             m.name,
             sig(m.default_s, 3),
             sig(m.plain_s, 3),
             m.ratio(),
             m.default_out_of_steps,
-            m.plain_out_of_steps
+            m.plain_out_of_steps,
+            m.choice.name()
         );
         rows.push(m);
     }
-    let worst = rows.iter().max_by(|a, b| a.ratio().total_cmp(&b.ratio()));
+    let above: Vec<String> = (rows.iter())
+        .filter(|m| m.ratio() > 1.0)
+        .map(|m| format!("{} ({:.2}, {})", m.name, m.ratio(), m.choice.name()))
+        .collect();
     println!(
-        "\ngeometric mean of the ratios: {:.2}; highest: {}",
+        "\ngeometric mean of the ratios: {:.2}; above 1: {}",
         corpus::geometric_mean(&rows),
-        worst.map_or("none".to_string(), |w| format!(
-            "{} ({:.2})",
-            w.name,
-            w.ratio()
-        ))
+        if above.is_empty() {
+            "none".to_string()
+        } else {
+            above.join(", ")
+        }
     );
     Ok(())
 }

@@ -14,9 +14,11 @@ use crate::vm::cells::epsilon_at;
 use crate::vm::{Dual, LANES, Regs};
 use glam::DVec4;
 
-/// Most columns of the probe's grid of camera rays (its rows follow the image's aspect); a
-/// quarter of the image's, on small images, so that the probe costs little beside them.
+/// Most columns of the probe's grid of camera rays (its rows follow the image's aspect); an
+/// eighth of the image's, down to `MIN_COLUMNS`, on small images, so that the probe costs
+/// little beside them.
 const COLUMNS: u32 = 24;
+const MIN_COLUMNS: u32 = 16;
 /// Mirror bounces followed from each camera ray's hit.
 const BOUNCES: usize = 2;
 /// The shares the plain march of the probe is taken in.
@@ -31,7 +33,9 @@ pub struct Work {
     pub steps: u64,
     pub evaluations: u64,
     pub instructions: u64,
-    pub out_of_steps: u64,
+    /// Rays that took at least a quarter of the step limit, or ran out: crawling rays
+    /// (grazing a surface) that a bigger image, with more such rays, loses to the limit.
+    pub strained: u64,
 }
 
 impl Work {
@@ -98,7 +102,7 @@ impl Probe {
             cells: None,
             ..cells
         };
-        let columns = (width / 4).clamp(1, COLUMNS);
+        let columns = (width / 8).clamp(MIN_COLUMNS, COLUMNS);
         let rows = (columns * height / width.max(1)).max(1);
         let mut rays: Vec<Ray> = (0..columns * rows)
             .map(|i| Ray {
@@ -167,9 +171,46 @@ impl Probe {
     /// Whether the frame should march through its cells: they cost less than plain marching,
     /// or plain marching would lose rays to the step limit or to `f32` that they do not.
     pub fn cells_pay(&self) -> bool {
-        !self.resolved
-            || self.plain.out_of_steps > self.cells.out_of_steps
-            || self.cells.cost(&CELLS) <= self.plain.cost(&PLAIN)
+        self.choice() != Choice::Plain
+    }
+
+    /// The marcher the frame should use, and why.
+    pub fn choice(&self) -> Choice {
+        if !self.resolved {
+            Choice::CellsForPrecision
+        } else if self.plain.strained > 2 * self.cells.strained + self.cells.rays / 256 {
+            // Many more crawling rays than the cells have: plain would lose a visible band of
+            // them (a horizon over a floor). A few in a lattice's channels crawl either way.
+            Choice::CellsForSteps
+        } else if self.cells.cost(&CELLS) <= self.plain.cost(&PLAIN) {
+            Choice::CellsForSpeed
+        } else {
+            Choice::Plain
+        }
+    }
+}
+
+/// What the probe chose for a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Choice {
+    /// Cells, because the whole tape's `f32` coordinates cannot resolve the epsilon.
+    CellsForPrecision,
+    /// Cells, because plain marching takes many more probe rays near the step limit.
+    CellsForSteps,
+    /// Cells, because they cost less.
+    CellsForSpeed,
+    /// Plain marching on the whole tape, because it costs less.
+    Plain,
+}
+
+impl Choice {
+    pub fn name(self) -> &'static str {
+        match self {
+            Choice::CellsForPrecision => "cells (precision)",
+            Choice::CellsForSteps => "cells (steps)",
+            Choice::CellsForSpeed => "cells (speed)",
+            Choice::Plain => "plain (speed)",
+        }
     }
 }
 
@@ -190,7 +231,8 @@ fn march(
     work.steps += marcher.steps - before.0;
     work.evaluations += marcher.evaluations - before.1;
     work.instructions += marcher.instructions - before.2;
-    work.out_of_steps += hits.iter().filter(|h| **h == Hit::OutOfSteps).count() as u64;
+    let strain = (limits.max_steps / 4).max(1);
+    work.strained += marcher.last_steps().filter(|&s| s >= strain).count() as u64;
 }
 
 /// The mirror bounces of the rays that hit a surface, from just outside it; notes whether the

@@ -8,9 +8,12 @@
 
 use super::median;
 use crate::Compilation;
+use crate::compile::Compiled;
 use crate::error::{Error, Result};
 use crate::render::driver::{self, Options};
+use crate::render::frame::{Features, FrameScene};
 use crate::render::march::MarcherKind;
+use crate::render::probe::Choice;
 use crate::scene::{Denoise, Scene};
 use std::path::Path;
 
@@ -152,6 +155,8 @@ pub struct Measured {
     pub plain_s: f64,
     pub default_out_of_steps: u64,
     pub plain_out_of_steps: u64,
+    /// What the default marcher chose for the first frame, and why.
+    pub choice: Choice,
 }
 
 impl Measured {
@@ -180,7 +185,16 @@ pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> 
             out_of_steps[i] = rendered.stats.out_of_steps;
         }
     }
+    let compiled = Compiled::new(scene);
+    let first = FrameScene::for_marcher(
+        scene,
+        &compiled,
+        Features::of(&compiled),
+        0.0,
+        MarcherKind::Auto,
+    );
     Ok(Measured {
+        choice: first.probe.expect("the default marcher probes").choice(),
         name: name.to_string(),
         default_s: median(&mut times[0]),
         plain_s: median(&mut times[1]),

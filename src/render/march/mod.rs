@@ -203,6 +203,11 @@ impl Marcher {
         self.rays += rays.len() as u64;
     }
 
+    /// The steps each ray of the last `march` took.
+    pub fn last_steps(&self) -> impl Iterator<Item = u32> + '_ {
+        self.state.iter().map(|s| s.steps)
+    }
+
     fn march_cells(
         &mut self,
         cells: &Cells,
