@@ -168,9 +168,9 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
         threads.map_or("every".to_string(), |t| t.to_string())
     );
     println!(
-        "| scene | default (s) | plain (s) | ratio | out of steps (default) | out of steps (plain) |"
+        "| scene | default (s) | plain (s) | ratio | out of steps (default) | out of steps (plain) | choice (first frame) |"
     );
-    println!("|---|--:|--:|--:|--:|--:|");
+    println!("|---|--:|--:|--:|--:|--:|---|");
     let mut rows = vec![];
     for entry in &entries {
         let scene = entry.scene(Path::new("."))?;
