@@ -8,12 +8,6 @@
 use super::{Field, Hit, Limits, Marcher, Ray};
 use crate::vm::cells::epsilon_at;
 
-/// Steps a ray takes before it first tries to prove that it escapes: most rays meet a
-/// surface within a few steps, and a proof costs as much as several steps (a pass over the
-/// unbounded objects' graph), which in a tiling, where none succeeds, was a third of the
-/// marching time.
-const ESCAPE_AFTER: u32 = 4;
-
 impl Marcher {
     pub(super) fn march_plain(
         &mut self,
@@ -34,6 +28,21 @@ impl Marcher {
                 continue;
             }
             while !self.active.is_empty() {
+                // Rays proven clear of every object leave for the sky.
+                self.active.retain(|&i| {
+                    let (r, st) = (&rays[i as usize], &mut self.state[i as usize]);
+                    if st.t < st.escape_at {
+                        return true;
+                    }
+                    st.escape_at = 2.0 * st.t + 1.0;
+                    !field.escape.escapes(
+                        r.o + r.d * st.t,
+                        r.d,
+                        interior,
+                        &mut st.keep,
+                        &mut self.proofs,
+                    )
+                });
                 self.next.clear();
                 self.lanes.points.clear();
                 (self.lanes.points).extend(self.active.iter().map(|&i| {
@@ -70,13 +79,6 @@ impl Marcher {
                             hits[k] = Hit::Beyond;
                         } else if st.steps >= limits.max_steps {
                             hits[k] = Hit::OutOfSteps;
-                        } else if st.steps >= ESCAPE_AFTER && st.t >= st.escape_at && {
-                            // Rays proven clear of every object leave for the sky.
-                            st.escape_at = 2.0 * st.t + 1.0;
-                            let p = r.o + r.d * st.t;
-                            (field.escape).escapes(p, r.d, interior, &mut st.keep, &mut self.proofs)
-                        } {
-                            hits[k] = Hit::Beyond;
                         } else {
                             self.next.push(i);
                         }
