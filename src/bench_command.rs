@@ -39,11 +39,11 @@ pub struct BenchArgs {
     /// bench-<scene name>.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Worker threads (0: every core). Default: the scene's setting.
+    /// Worker threads (0: every core). Default: the scene's setting (2 with --marcher-corpus).
     #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
     threads: Option<u32>,
     /// Renders of each configuration; the time reported is their median. Default 5 (1 with
-    /// --quick).
+    /// --quick, 3 with --marcher-corpus).
     #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
     repeats: Option<u32>,
     /// Measure only these families, comma-separated: baseline, no-light-sampling, random,
@@ -59,7 +59,7 @@ pub struct BenchArgs {
     /// boxes, a turned slab and generated scenes), paired and alternating, and print each
     /// scene's ratio (default / plain) and their geometric mean. Run it from the repository
     /// root. --repeats sets the renders of each (default 3), --threads the threads (default 2).
-    #[arg(long, conflicts_with_all = ["file", "costs", "reference", "reference_spp", "spp_list", "families", "size", "frames", "quick"])]
+    #[arg(long, conflicts_with_all = ["file", "costs", "reference", "reference_spp", "spp_list", "families", "size", "frames", "quick", "out"])]
     marcher_corpus: bool,
     /// With --marcher-corpus: how many generated scenes (seeds 1, 2, ...).
     #[arg(long, default_value_t = 20, requires = "marcher_corpus", value_parser = clap::value_parser!(u64).range(0..=10_000))]
@@ -158,6 +158,13 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
         Some(n) => Some(n as usize),
         None => Some(2),
     };
+    if !Path::new("examples").is_dir() {
+        return Err(hyperslice::Error::Usage(
+            "the marcher corpus reads the repository's scenes (examples/, benches/scenes/, \
+             tests/in/): run `hyperslice bench --marcher-corpus` from the repository root"
+                .to_string(),
+        ));
+    }
     let entries = corpus::entries(args.generated);
     println!("# The marcher corpus: default (auto) against --marcher plain\n");
     println!("- command: `{}`", command_line());

@@ -484,3 +484,32 @@ fn peak_memory_does_not_grow_with_the_frames() {
         "16 frames take {ratio:.2} times the memory of 4"
     );
 }
+
+/// Films remember which marcher made them: each marcher's images differ in the last bits, so a
+/// film of one must not be resumed or merged into a render with another (the default, auto,
+/// included: it was cells before).
+#[test]
+fn each_marcher_has_its_own_film_fingerprint() {
+    use hyperslice::RenderOptions;
+    use hyperslice::farm::Fingerprint;
+    use hyperslice::render::march::MarcherKind;
+    let scene = hyperslice::Compilation::from_source(
+        "ball.4ds",
+        "object ball { shape = hypersphere(1) material = diffuse() }",
+    )
+    .into_scene()
+    .expect("a scene");
+    let digests: Vec<String> = [MarcherKind::Auto, MarcherKind::Cells, MarcherKind::Plain]
+        .into_iter()
+        .map(|marcher| {
+            let options = RenderOptions {
+                marcher,
+                ..RenderOptions::default()
+            };
+            Fingerprint::of(&scene, &options).digest
+        })
+        .collect();
+    assert_ne!(digests[0], digests[1]);
+    assert_ne!(digests[0], digests[2]);
+    assert_ne!(digests[1], digests[2]);
+}

@@ -888,7 +888,9 @@ fn only_distances_become_exact_spheres() {
 /// The default marcher keeps a frame's cells only where its probe shows they pay: not on a D4
 /// tiling alone (7 instructions that nothing prunes, so cells only add bookkeeping), but on a
 /// union of 1024 spheres (cells cut each step to the few spheres nearby), and always where the
-/// whole tape's `f32` coordinates cannot resolve the epsilon (a scene far from the origin).
+/// whole tape's `f32` coordinates cannot resolve the epsilon (a scene far from the origin) or
+/// the camera is inside an object (its rays march the interior tape, which the probe does not
+/// measure). The probe stays small whatever the image's shape.
 #[test]
 fn frames_march_through_cells_only_where_they_pay() {
     use hyperslice::compile::Compiled;
@@ -898,6 +900,13 @@ fn frames_march_through_cells_only_where_they_pay() {
                camera { from = [1e6, 0, -5, 0]  to = [1e6, 0, 0, 0] }\n\
                object ball { shape = hypersphere(1) |> translate([1e6, 0, 0, 0]) \
                material = diffuse(rgb(0.5)) }";
+    let inside = "render { size = 64 x 48 }\n\
+                  camera { from = [0, 0, -5, 0] }\n\
+                  object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }\n\
+                  object bath { shape = hypersphere(20) material = glass(ior: 1.3) }";
+    let tall = "render { size = 16 x 16384 }\n\
+                camera { from = [0, 0, -5, 0] }\n\
+                object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }";
     let cases = [
         (
             Compilation::from_path(Path::new("examples/d4_packing.4ds")),
@@ -911,6 +920,8 @@ fn frames_march_through_cells_only_where_they_pay() {
             true,
         ),
         (Compilation::from_source("far.4ds", far), true),
+        (Compilation::from_source("inside.4ds", inside), true),
+        (Compilation::from_source("tall.4ds", tall), false),
     ];
     for (c, cells) in cases {
         assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
@@ -920,5 +931,6 @@ fn frames_march_through_cells_only_where_they_pay() {
         let fs = FrameScene::for_marcher(&scene, &compiled, features, 0.0, MarcherKind::Auto);
         let probe = fs.probe.expect("the default marcher probes");
         assert_eq!(fs.cells.is_some(), cells, "{probe:?}");
+        assert!(probe.cells.rays <= 3 * 24 * 24, "{probe:?}");
     }
 }

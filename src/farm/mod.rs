@@ -14,7 +14,6 @@ pub mod plan;
 
 use crate::render::driver::Options;
 use crate::render::integrator::Stats;
-use crate::render::march::MarcherKind;
 use crate::scene::{Denoise, Quality, Scene};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
@@ -77,7 +76,7 @@ impl Fingerprint {
         );
         let description = format!(
             "hyperslice {} film format {FORMAT}\n\
-             options light_sampling {}  sampler {:?}  roulette_from {}  general {}  noise_threshold {:?}  progressive {}{}\n\
+             options light_sampling {}  sampler {:?}  roulette_from {}  general {}  noise_threshold {:?}  progressive {}  marcher {}\n\
              {s}",
             env!("CARGO_PKG_VERSION"),
             options.light_sampling,
@@ -88,12 +87,9 @@ impl Fingerprint {
             // A time budget changes how samples are grouped into passes (and how many are
             // taken), so films of a budgeted render are not those of a fixed-spp one.
             options.time_budget.is_some() || options.noise_threshold.is_some(),
-            // Named only when it is not the default, so films of default renders keep
-            // their fingerprints.
-            match options.marcher {
-                MarcherKind::Auto => String::new(),
-                m => format!("  marcher {}", m.name()),
-            },
+            // Always named: the default changed from cells to auto, so films of the old
+            // default must not pass for films of the new one.
+            options.marcher.name(),
         );
         let digest = Sha256::digest(description.as_bytes());
         Fingerprint {

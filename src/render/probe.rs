@@ -23,13 +23,18 @@ const MIN_COLUMNS: u32 = 16;
 const BOUNCES: usize = 2;
 /// The shares the plain march of the probe is taken in.
 const SHARES: usize = 8;
+/// The probe's step limit (the render's, if lower): with a limit of a million, a crawling
+/// ray in the probe would take a million steps of the whole tape before the frame starts.
+const STEPS: u32 = 1000;
 
 /// What marching the probe cost one marcher, in counts (`Marcher`'s).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Work {
+    /// Rays marched.
     pub rays: u64,
     /// Graph nodes bounded to prove that rays escape (`Escape::escapes`).
     pub bounded: u64,
+    /// Steps, tape evaluations (exact pieces included) and tape instructions per lane.
     pub steps: u64,
     pub evaluations: u64,
     pub instructions: u64,
@@ -83,9 +88,12 @@ const PLAIN: Weights = Weights {
 pub struct Probe {
     pub cells: Work,
     pub plain: Work,
-    /// The plain marcher resolves the epsilon at every point the probe met (`f32` coordinates
-    /// of the whole tape; the cells resolve it locally).
+    /// The plain marcher resolves the epsilon at the camera and at every hit of the probe
+    /// (`f32` coordinates of the whole tape; the cells resolve it locally).
     pub resolved: bool,
+    /// Most camera rays meet a surface where they start: the camera is inside an object, where
+    /// the render marches them on the interior tape, which the probe does not measure.
+    pub inside: bool,
 }
 
 impl Probe {
@@ -103,7 +111,12 @@ impl Probe {
             ..cells
         };
         let columns = (width / 8).clamp(MIN_COLUMNS, COLUMNS);
-        let rows = (columns * height / width.max(1)).max(1);
+        let rows = (columns * height / width.max(1)).clamp(1, COLUMNS);
+        // Rays the plain march would lose crawl at most this long in the probe.
+        let limits = Limits {
+            max_steps: limits.max_steps.min(STEPS),
+            ..limits
+        };
         let mut rays: Vec<Ray> = (0..columns * rows)
             .map(|i| Ray {
                 o: camera.position,
@@ -121,6 +134,7 @@ impl Probe {
             cells: Work::default(),
             plain: Work::default(),
             resolved: epsilon_at(camera.position, limits.epsilon) <= limits.epsilon,
+            inside: false,
         };
         let (mut marcher, mut hits) = (Marcher::default(), vec![]);
         let mut grad = Regs { r: vec![] };
@@ -135,17 +149,21 @@ impl Probe {
                 &mut probe.cells,
             );
             all.extend_from_slice(&rays);
+            let mut at_start = 0;
+            for (r, h) in rays.iter().zip(&hits) {
+                if let Hit::Surface { t, .. } = *h {
+                    let p = r.o + r.d * t;
+                    probe.resolved &= epsilon_at(p, limits.epsilon) <= limits.epsilon;
+                    at_start += (t == 0.0) as usize;
+                }
+            }
+            if generation == 0 {
+                probe.inside = 2 * at_start > rays.len();
+            }
             if generation == BOUNCES {
                 break;
             }
-            rays = bounce(
-                &rays,
-                &hits,
-                objects,
-                &mut grad,
-                limits,
-                &mut probe.resolved,
-            );
+            rays = bounce(&rays, &hits, objects, &mut grad, limits);
         }
         // Plainly, an eighth of the rays at a time, and no more once that costs more than
         // the cells' whole march: the cells pay whatever the rest would cost, and a plain
@@ -176,7 +194,9 @@ impl Probe {
 
     /// The marcher the frame should use, and why.
     pub fn choice(&self) -> Choice {
-        if !self.resolved {
+        if self.inside {
+            Choice::CellsForInside
+        } else if !self.resolved {
             Choice::CellsForPrecision
         } else if self.plain.strained > 2 * self.cells.strained + self.cells.rays / 256 {
             // Many more crawling rays than the cells have: plain would lose a visible band of
@@ -193,6 +213,8 @@ impl Probe {
 /// What the probe chose for a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Choice {
+    /// Cells, because the camera is inside an object (the probe measures rays outside).
+    CellsForInside,
     /// Cells, because the whole tape's `f32` coordinates cannot resolve the epsilon.
     CellsForPrecision,
     /// Cells, because plain marching takes many more probe rays near the step limit.
@@ -204,8 +226,10 @@ pub enum Choice {
 }
 
 impl Choice {
+    /// How the bench names it.
     pub fn name(self) -> &'static str {
         match self {
+            Choice::CellsForInside => "cells (camera inside)",
             Choice::CellsForPrecision => "cells (precision)",
             Choice::CellsForSteps => "cells (steps)",
             Choice::CellsForSpeed => "cells (speed)",
@@ -235,15 +259,13 @@ fn march(
     work.strained += marcher.last_steps().filter(|&s| s >= strain).count() as u64;
 }
 
-/// The mirror bounces of the rays that hit a surface, from just outside it; notes whether the
-/// plain marcher resolves the epsilon at each hit.
+/// The mirror bounces of the rays that hit a surface, from just outside it.
 fn bounce(
     rays: &[Ray],
     hits: &[Hit],
     objects: &[FrameObject],
     grad: &mut Regs<Dual, LANES>,
     limits: Limits,
-    resolved: &mut bool,
 ) -> Vec<Ray> {
     let mut out = vec![];
     for (r, h) in rays.iter().zip(hits) {
@@ -252,7 +274,6 @@ fn bounce(
         };
         let p = r.o + r.d * t;
         let eps = epsilon_at(p, limits.epsilon);
-        *resolved &= eps <= limits.epsilon;
         let point = [p.as_vec4().to_array()];
         let g = crate::vm::gradient(&objects[object].distance, grad, &point, 0.0)[0];
         let n = DVec4::from_array(g.g.map(f64::from)).normalize_or_zero();

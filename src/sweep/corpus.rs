@@ -170,7 +170,7 @@ impl Measured {
 pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> Result<Measured> {
     let mut times = [vec![], vec![]];
     let mut out_of_steps = [0, 0];
-    for _ in 0..runs.max(1) {
+    for _ in 0..runs {
         for (i, marcher) in [MarcherKind::Auto, MarcherKind::Plain]
             .into_iter()
             .enumerate()

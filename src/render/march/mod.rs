@@ -27,7 +27,7 @@ use lanes::Lanes;
 /// Which marcher a render uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum MarcherKind {
-    /// Through the frame's cells where a probe of a few hundred rays shows that they pay,
+    /// Through the frame's cells where a probe of at most about 1,700 rays shows that they pay,
     /// plainly where they do not (the default).
     #[default]
     Auto,
