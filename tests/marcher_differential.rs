@@ -389,7 +389,7 @@ fn shrunk_scenes_agree_with_the_reference() {
     }
 }
 
-/// `SOAK_FROM`, `SOAK_COUNT` and `SOAK_MARCHER` (cells or plain) choose the scenes and the
+/// `SOAK_FROM`, `SOAK_COUNT` and `SOAK_MARCHER` (cells, plain or auto) choose the scenes and the
 /// marcher: `SOAK_FROM=92 SOAK_COUNT=1` reruns one scene. `SOAK_SHOW=N` prints the first N
 /// failing scenes, `SOAK_STUCK=1` every scene with rays out of steps (and their kinds), and
 /// `SOAK_SCENE=FILE` marches that scene instead of the generated one (with its scale), to
@@ -405,6 +405,7 @@ fn soak_generated_scenes() {
     };
     let kind = match std::env::var("SOAK_MARCHER").as_deref() {
         Ok("plain") => MarcherKind::Plain,
+        Ok("auto") => MarcherKind::Auto,
         _ => MarcherKind::Cells,
     };
     assert_sound(kind, var("SOAK_FROM", 1), var("SOAK_COUNT", 10_000));
