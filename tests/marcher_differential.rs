@@ -189,10 +189,7 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
         eval: Reference::new(&ir.graph, &roots),
         ir: &ir,
     };
-    let limits = Limits {
-        epsilon: scene.render.epsilon,
-        max_steps: scene.render.max_steps,
-    };
+    let limits = Limits::of(&scene.render);
     let (w, h) = (8, 8);
     let camera = &fs.camera;
     let rays: Vec<Ray> = (0..w * h)

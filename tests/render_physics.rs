@@ -466,10 +466,7 @@ fn march_rays(src: &str, rays: impl FnOnce(&FrameScene) -> Vec<Ray>) -> Marched 
     let compiled = Compiled::new(&scene);
     let frame = FrameScene::new(&scene, &compiled, Features::of(&compiled), 0.0);
     let rays = rays(&frame);
-    let limits = Limits {
-        epsilon: scene.render.epsilon,
-        max_steps: scene.render.max_steps,
-    };
+    let limits = Limits::of(&scene.render);
     let (mut marcher, mut hits) = (Marcher::default(), vec![]);
     marcher.march(frame.field(), &rays, limits, &mut hits);
     Marched {

@@ -349,10 +349,7 @@ pub fn render_units(
         width: r.width,
         height: r.height,
         bounces: r.bounces,
-        limits: Limits {
-            epsilon: r.epsilon,
-            max_steps: r.max_steps,
-        },
+        limits: Limits::of(r),
         seed: r.seed,
         roulette_from: options.roulette_from,
         light_sampling: options.light_sampling,

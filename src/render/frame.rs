@@ -104,16 +104,12 @@ impl FrameScene {
         };
         if marcher == MarcherKind::Auto {
             let r = &scene.render;
-            let limits = Limits {
-                epsilon: r.epsilon,
-                max_steps: r.max_steps,
-            };
             let probe = Probe::run(
                 fs.field(),
                 &fs.camera,
                 &fs.objects,
                 (r.width, r.height),
-                limits,
+                Limits::of(r),
             );
             if !probe.cells_pay() {
                 fs.cells = None;

@@ -27,16 +27,15 @@ const SHARES: usize = 8;
 /// ray in the probe would take a million steps of the whole tape before the frame starts.
 const STEPS: u32 = 1000;
 
-/// What marching the probe cost one marcher, in counts (`Marcher`'s).
+/// What marching the probe cost one marcher, in counts.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Work {
     /// Rays marched.
     pub rays: u64,
     /// Graph nodes bounded to prove that rays escape (`Escape::escapes`).
     pub bounded: u64,
-    /// Steps, tape evaluations (exact pieces included) and tape instructions per lane.
+    /// Steps (sphere steps, jumps across cells, steps back) and tape instructions per lane.
     pub steps: u64,
-    pub evaluations: u64,
     pub instructions: u64,
     /// Rays that took at least a quarter of the step limit, or ran out: crawling rays
     /// (grazing a surface) that a bigger image, with more such rays, loses to the limit.
@@ -59,8 +58,8 @@ impl Work {
 /// per lane), a node bounded for an escape proof. Fitted (non-negative least squares, relative
 /// error) to both marchers timed alone on the probe rays of 50 scenes: the examples, sphere
 /// unions, a custom field, a tiling, a turned slab and 40 generated scenes
-/// (`docs/performance.md`, "Cells only where they pay"). Evaluations took no weight of their
-/// own. Only the ratio of the two costs matters, so the machine's speed drops out.
+/// (`docs/performance.md`, "Cells only where they pay"). Evaluations, fitted too, took no
+/// weight of their own. Only the ratio of the two costs matters, so the machine's speed drops out.
 struct Weights {
     ray: f64,
     step: f64,
@@ -247,16 +246,16 @@ fn march(
     hits: &mut Vec<Hit>,
     work: &mut Work,
 ) {
-    let before = (marcher.steps, marcher.evaluations, marcher.instructions);
-    let (rays_before, bounded_before) = (marcher.rays, marcher.proofs.bounded);
+    let before = (marcher.instructions, marcher.proofs.bounded);
     marcher.march(field, rays, limits, hits);
-    work.rays += marcher.rays - rays_before;
-    work.bounded += marcher.proofs.bounded - bounded_before;
-    work.steps += marcher.steps - before.0;
-    work.evaluations += marcher.evaluations - before.1;
-    work.instructions += marcher.instructions - before.2;
+    work.rays += rays.len() as u64;
+    work.instructions += marcher.instructions - before.0;
+    work.bounded += marcher.proofs.bounded - before.1;
     let strain = (limits.max_steps / 4).max(1);
-    work.strained += marcher.last_steps().filter(|&s| s >= strain).count() as u64;
+    for s in marcher.last_steps() {
+        work.steps += s as u64;
+        work.strained += (s >= strain) as u64;
+    }
 }
 
 /// The mirror bounces of the rays that hit a surface, from just outside it.

@@ -86,6 +86,16 @@ pub struct Limits {
     pub max_steps: u32,
 }
 
+impl Limits {
+    /// The scene's.
+    pub fn of(r: &crate::scene::RenderSettings) -> Limits {
+        Limits {
+            epsilon: r.epsilon,
+            max_steps: r.max_steps,
+        }
+    }
+}
+
 /// The queue's tape class of rays in a partial cell (after 0, the scene's, and 1, the
 /// interior's).
 const PARTIAL: usize = 2;
@@ -154,10 +164,6 @@ pub struct Marcher {
     next: Vec<u32>,
     /// Rays that need a tape run this step, with their cell's address as the sort key.
     queue: Vec<(usize, u32)>,
-    /// Steps taken (sphere steps, jumps across cells, steps back), for the statistics.
-    pub steps: u64,
-    /// Rays marched, for the statistics.
-    pub rays: u64,
     /// Escape proofs' buffers, and the nodes they bounded.
     pub proofs: Proofs,
     /// Distance evaluations (tape lanes and exact evaluations in affine cells), for the
@@ -199,8 +205,6 @@ impl Marcher {
             Some(cells) => self.march_cells(cells, field.escape, rays, limits, hits),
             None => self.march_plain(field, rays, limits, hits),
         }
-        self.steps += self.state.iter().map(|s| s.steps as u64).sum::<u64>();
-        self.rays += rays.len() as u64;
     }
 
     /// The steps each ray of the last `march` took.
