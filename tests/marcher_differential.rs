@@ -3,7 +3,7 @@
 //! halfspaces, union / intersect / subtract with and without `smooth`, onion, round, rotations
 //! in all six planes, translations, grid tilings, custom `sdf` fields, glass), at scales from
 //! 1e-3 to 1e4 and far from the origin, with cameras outside and inside objects. Camera,
-//! bounce, shadow and interior rays are marched by both marchers and checked against an `f64`
+//! bounce, shadow and interior rays are marched by each marcher and checked against an `f64`
 //! sphere trace of the unoptimised IR (plain steps, a far cut-off instead of the escape
 //! proof, a huge step cap):
 //!
@@ -346,14 +346,16 @@ fn generated_scenes_agree_with_the_reference() {
 }
 
 #[test]
-fn the_plain_marcher_agrees_with_the_reference() {
-    let (_, failures, known) = tally(MarcherKind::Plain, 1, 300);
-    let wrong = failures.len() + known.len();
-    assert!(wrong == 0, "{wrong} scenes disagree");
+fn the_whole_tape_marchers_agree_with_the_reference() {
+    for kind in [MarcherKind::Plain, MarcherKind::Whole] {
+        let (_, failures, known) = tally(kind, 1, 300);
+        let wrong = failures.len() + known.len();
+        assert!(wrong == 0, "{}: {wrong} scenes disagree", kind.name());
+    }
 }
 
 /// Failures of the soak, shrunk to a few lines each (`tests/in/marcher/`, each saying what
-/// went wrong; `// scale = X` sets the scale the harness checks at, 1 unless given): both
+/// went wrong; `// scale = X` sets the scale the harness checks at, 1 unless given): each
 /// marchers agree with the reference on every one, with no ray out of steps.
 #[test]
 fn shrunk_scenes_agree_with_the_reference() {
@@ -369,7 +371,7 @@ fn shrunk_scenes_agree_with_the_reference() {
             .find_map(|l| l.strip_prefix("// scale = "))
             .map_or(1.0, |x| x.trim().parse().expect("a scale"));
         let g = Generated { source, scale };
-        for kind in [MarcherKind::Cells, MarcherKind::Plain] {
+        for kind in [MarcherKind::Cells, MarcherKind::Whole, MarcherKind::Plain] {
             let mut tally = Tally::default();
             run_scene(&g, kind, &mut tally);
             assert!(
@@ -386,7 +388,7 @@ fn shrunk_scenes_agree_with_the_reference() {
     }
 }
 
-/// `SOAK_FROM`, `SOAK_COUNT` and `SOAK_MARCHER` (cells, plain or auto) choose the scenes and the
+/// `SOAK_FROM`, `SOAK_COUNT` and `SOAK_MARCHER` (cells, whole, plain or auto) choose the scenes and the
 /// marcher: `SOAK_FROM=92 SOAK_COUNT=1` reruns one scene. `SOAK_SHOW=N` prints the first N
 /// failing scenes, `SOAK_STUCK=1` every scene with rays out of steps (and their kinds), and
 /// `SOAK_SCENE=FILE` marches that scene instead of the generated one (with its scale), to
@@ -402,6 +404,7 @@ fn soak_generated_scenes() {
     };
     let kind = match std::env::var("SOAK_MARCHER").as_deref() {
         Ok("plain") => MarcherKind::Plain,
+        Ok("whole") => MarcherKind::Whole,
         Ok("auto") => MarcherKind::Auto,
         _ => MarcherKind::Cells,
     };

@@ -47,6 +47,8 @@ pub struct FrameScene {
     pub cells: Option<Cells>,
     /// What proves that a ray has left every object.
     pub escape: Escape,
+    /// Whether rays over-relax their steps (every marcher but the plain one).
+    pub relax: bool,
     /// What the probe that chose the marcher found (`MarcherKind::Auto` only).
     pub probe: Option<Probe>,
 }
@@ -100,6 +102,7 @@ impl FrameScene {
             medium: Medium::of_material(&scene.medium),
             sky: DVec3::from_array(scene.sky),
             features,
+            relax: marcher != MarcherKind::Plain,
             probe: None,
         };
         if marcher == MarcherKind::Auto {
@@ -147,7 +150,7 @@ fn cells(
     }
     let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
     let escape = Escape::new(&ir.graph, (lo, hi), &distances);
-    if marcher == MarcherKind::Plain {
+    if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
         return (None, escape);
     }
     let roots = Roots {
@@ -200,6 +203,7 @@ impl FrameScene {
     pub fn field(&self) -> Field<'_> {
         Field {
             cells: self.cells.as_ref(),
+            relax: self.relax,
             scene: &self.scene,
             interior: self.interior.as_ref(),
             escape: &self.escape,

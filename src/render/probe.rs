@@ -3,8 +3,8 @@
 //! step for finding the ray's cell and grouping rays by cell; where the whole tape is short and
 //! nothing prunes it (a tiling alone) that costs more than it saves. Before a frame renders,
 //! a fixed probe of rays (camera rays through a grid of pixels, then two mirror bounces from
-//! their hits) is marched with both marchers, and the frame keeps its cells only where their
-//! modelled cost is lower. The model counts, not clocks (`Work::cost`), so the choice is the
+//! their hits) is marched through the cells and on the whole tape (both with relaxed steps), and
+//! the frame keeps its cells only where their modelled cost is lower. The model counts, not clocks (`Work::cost`), so the choice is the
 //! same in every run, on every machine and whatever the thread count.
 
 use super::camera::FrameCamera;
@@ -21,7 +21,7 @@ const COLUMNS: u32 = 24;
 const MIN_COLUMNS: u32 = 16;
 /// Mirror bounces followed from each camera ray's hit.
 const BOUNCES: usize = 2;
-/// The shares the plain march of the probe is taken in.
+/// The shares the whole-tape march of the probe is taken in.
 const SHARES: usize = 8;
 /// The probe's step limit (the render's, if lower): with a limit of a million, a crawling
 /// ray in the probe would take a million steps of the whole tape before the frame starts.
@@ -74,20 +74,20 @@ const CELLS: Weights = Weights {
     bounded: 19.0,
 };
 
-const PLAIN: Weights = Weights {
+const WHOLE: Weights = Weights {
     ray: 53.0,
     step: 14.0,
     instruction: 0.16,
     bounded: 21.0,
 };
 
-/// The probe's outcome: what each marcher's march of it cost (the plain march only as far as
-/// it went: it stops once it costs more than the cells').
+/// The probe's outcome: what each marcher's march of it cost (the whole-tape march only as far
+/// as it went: it stops once it costs more than the cells').
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
     pub cells: Work,
-    pub plain: Work,
-    /// The plain marcher resolves the epsilon at the camera and at every hit of the probe
+    pub whole: Work,
+    /// The whole-tape marcher resolves the epsilon at the camera and at every hit of the probe
     /// (`f32` coordinates of the whole tape; the cells resolve it locally).
     pub resolved: bool,
     /// Most camera rays meet a surface where they start: the camera is inside an object, where
@@ -105,13 +105,13 @@ impl Probe {
         (width, height): (u32, u32),
         limits: Limits,
     ) -> Probe {
-        let plain = Field {
+        let whole = Field {
             cells: None,
             ..cells
         };
         let columns = (width / 8).clamp(MIN_COLUMNS, COLUMNS);
         let rows = (columns * height / width.max(1)).clamp(1, COLUMNS);
-        // Rays the plain march would lose crawl at most this long in the probe.
+        // Rays the whole-tape march would lose crawl at most this long in the probe.
         let limits = Limits {
             max_steps: limits.max_steps.min(STEPS),
             ..limits
@@ -131,7 +131,7 @@ impl Probe {
             .collect();
         let mut probe = Probe {
             cells: Work::default(),
-            plain: Work::default(),
+            whole: Work::default(),
             resolved: epsilon_at(camera.position, limits.epsilon) <= limits.epsilon,
             inside: false,
         };
@@ -164,31 +164,31 @@ impl Probe {
             }
             rays = bounce(&rays, &hits, objects, &mut grad, limits);
         }
-        // Plainly, an eighth of the rays at a time, and no more once that costs more than
-        // the cells' whole march: the cells pay whatever the rest would cost, and a plain
-        // march of a dense union is most of what the probe would spend.
+        // On the whole tape, an eighth of the rays at a time, and no more once that costs
+        // more than the cells' march: the cells pay whatever the rest would cost, and a
+        // whole-tape march of a dense union is most of what the probe would spend.
         let cells_cost = probe.cells.cost(&CELLS);
         for k in 0..SHARES {
             let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
             march(
                 &mut marcher,
-                plain,
+                whole,
                 &share,
                 limits,
                 &mut hits,
-                &mut probe.plain,
+                &mut probe.whole,
             );
-            if probe.plain.cost(&PLAIN) > cells_cost {
+            if probe.whole.cost(&WHOLE) > cells_cost {
                 break;
             }
         }
         probe
     }
 
-    /// Whether the frame should march through its cells: they cost less than plain marching,
-    /// or plain marching would lose rays to the step limit or to `f32` that they do not.
+    /// Whether the frame should march through its cells: they cost less than marching the whole
+    /// tape, or marching it would lose rays to the step limit or to `f32` that they do not.
     pub fn cells_pay(&self) -> bool {
-        self.choice() != Choice::Plain
+        self.choice() != Choice::Whole
     }
 
     /// The marcher the frame should use, and why.
@@ -197,14 +197,14 @@ impl Probe {
             Choice::CellsForInside
         } else if !self.resolved {
             Choice::CellsForPrecision
-        } else if self.plain.strained > 2 * self.cells.strained + self.cells.rays / 256 {
-            // Many more crawling rays than the cells have: plain would lose a visible band of
+        } else if self.whole.strained > 2 * self.cells.strained + self.cells.rays / 256 {
+            // Many more crawling rays than the cells have: the whole tape would lose a visible band of
             // them (a horizon over a floor). A few in a lattice's channels crawl either way.
             Choice::CellsForSteps
-        } else if self.cells.cost(&CELLS) <= self.plain.cost(&PLAIN) {
+        } else if self.cells.cost(&CELLS) <= self.whole.cost(&WHOLE) {
             Choice::CellsForSpeed
         } else {
-            Choice::Plain
+            Choice::Whole
         }
     }
 }
@@ -216,12 +216,12 @@ pub enum Choice {
     CellsForInside,
     /// Cells, because the whole tape's `f32` coordinates cannot resolve the epsilon.
     CellsForPrecision,
-    /// Cells, because plain marching takes many more probe rays near the step limit.
+    /// Cells, because the whole tape takes many more probe rays near the step limit.
     CellsForSteps,
     /// Cells, because they cost less.
     CellsForSpeed,
-    /// Plain marching on the whole tape, because it costs less.
-    Plain,
+    /// Relaxed marching on the whole tape, because it costs less.
+    Whole,
 }
 
 impl Choice {
@@ -232,7 +232,7 @@ impl Choice {
             Choice::CellsForPrecision => "cells (precision)",
             Choice::CellsForSteps => "cells (steps)",
             Choice::CellsForSpeed => "cells (speed)",
-            Choice::Plain => "plain (speed)",
+            Choice::Whole => "whole (speed)",
         }
     }
 }

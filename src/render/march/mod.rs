@@ -11,8 +11,9 @@
 //! (Bán and Valasek 2023, "Automatic Step Size Relaxation in Sphere Tracing"): rays leaving
 //! a surface, where the distance grows, take long steps, and rays closing in on one plain
 //! ones. A ray sees the sky only when it provably leaves every object (`Escape::escapes`),
-//! never by travelling far (`vm::escape`). `--marcher plain` marches the whole tape instead
-//! (`plain`): the baseline the cells are measured and tested against.
+//! never by travelling far (`vm::escape`). `--marcher whole` marches the whole tape with the
+//! same relaxed steps, and `--marcher plain` with plain ones (`plain`): the baseline the
+//! others are measured and tested against.
 
 mod lanes;
 mod plain;
@@ -28,12 +29,14 @@ use lanes::Lanes;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
 pub enum MarcherKind {
     /// Through the frame's cells where a probe of at most about 1,700 rays shows that they pay,
-    /// plainly where they do not (the default).
+    /// on the whole tape (as `whole`) where they do not (the default).
     #[default]
     Auto,
     /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
     /// whether or not they pay.
     Cells,
+    /// Over-relaxed sphere tracing on the whole scene tape: no cells, no exact shortcuts.
+    Whole,
     /// Plain sphere tracing on the whole scene tape: no cells, no relaxation, no exact
     /// shortcuts. The in-process baseline for measurements and tests.
     Plain,
@@ -44,16 +47,19 @@ impl MarcherKind {
         match self {
             MarcherKind::Auto => "auto",
             MarcherKind::Cells => "cells",
+            MarcherKind::Whole => "whole",
             MarcherKind::Plain => "plain",
         }
     }
 }
 
-/// What a frame's rays march through: its cells (none for the plain marcher), the whole
+/// What a frame's rays march through: its cells (none for the whole-tape marchers), the whole
 /// scene and interior tapes, and the proof that a ray has left the scene.
 #[derive(Clone, Copy)]
 pub struct Field<'a> {
     pub cells: Option<&'a Cells>,
+    /// Whether rays outside objects over-relax their steps (all but the plain marcher).
+    pub relax: bool,
     pub scene: &'a Tape,
     pub interior: Option<&'a Tape>,
     pub escape: &'a Escape,
@@ -109,7 +115,7 @@ const SAFETY: f64 = 0.95;
 
 /// Where one ray is in its march.
 #[derive(Clone, Copy, Debug, Default)]
-struct State {
+pub(super) struct State {
     t: f64,
     steps: u32,
     /// The unbounding radius at the previous point and the step taken from it (0 after a
@@ -194,16 +200,21 @@ impl Marcher {
         hits.resize(rays.len(), Hit::Beyond);
         let keep = field.escape.unbounded();
         self.state.clear();
-        self.state.resize(
-            rays.len(),
+        // An unsigned distance does not change sign where a relaxed step crosses a surface,
+        // and the spheres of the two points still touch there: rays inside objects take
+        // plain steps.
+        (self.state).extend(rays.iter().map(|r| {
+            let relax = field.relax && !r.interior;
             State {
                 keep,
+                relax,
+                omega: if relax { OMEGA } else { 1.0 },
                 ..State::default()
-            },
-        );
+            }
+        }));
         match field.cells {
             Some(cells) => self.march_cells(cells, field.escape, rays, limits, hits),
-            None => self.march_plain(field, rays, limits, hits),
+            None => self.march_whole(field, rays, limits, hits),
         }
     }
 
@@ -223,11 +234,6 @@ impl Marcher {
         let unbounded = escape.unbounded();
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
-            // An unsigned distance does not change sign where a relaxed step crosses a
-            // surface, and the spheres of the two points still touch there: rays inside
-            // objects take plain steps.
-            st.relax = !r.interior;
-            st.omega = if st.relax { OMEGA } else { 1.0 };
         }
         let mut at: Vec<Option<&Cell>> = vec![None; rays.len()];
         let mut paths = vec![cells.path(); rays.len()];
@@ -432,8 +438,9 @@ fn unrelax(st: &mut State, d: f64) -> Option<Step> {
         (st.omega, st.partial) = (1.0, 0);
         return Some(Step::Advance(radius - step));
     }
-    let m = ((d - radius) / step).clamp(-1.0, 1.0);
-    st.omega = (SAFETY * 2.0 / (1.0 - m)).clamp(1.0, OMEGA_MAX);
+    // `2 / (1 - m)` with `m` clamped to [-1, 1], in one division: `step (1 - m)`.
+    let rest = (step + radius - d).clamp(0.0, 2.0 * step);
+    st.omega = (SAFETY * 2.0 * step / rest).clamp(1.0, OMEGA_MAX);
     None
 }
 

@@ -1,15 +1,17 @@
-//! The plain marcher (`--marcher plain`): sphere tracing on the whole scene tape (the interior
-//! tape for rays inside objects), `LANES` rays per run, each step the distance itself, a hit
-//! where it is below the epsilon (grown with the coordinates as `f32` needs). No cells, no
-//! relaxation, no exact shortcuts: the baseline the cells' marcher is timed and tested
-//! against. A ray sees the sky on the same proof as there (`Escape::escapes`), tried each time
-//! it has gone twice as far.
+//! Sphere tracing on the whole scene tape (the interior tape for rays inside objects),
+//! `LANES` rays per run, a hit where the distance is below the epsilon (grown with the
+//! coordinates as `f32` needs). No cells and no exact shortcuts. With `Field::relax` (the
+//! whole-tape marcher, `--marcher whole`) steps are over-relaxed and checked as the cells'
+//! are (`unrelax`); without it (`--marcher plain`) each step is the distance itself: the
+//! baseline the other marchers are timed and tested against. A ray sees the sky on the same
+//! proof as there (`Escape::escapes`), tried each time it has gone twice as far.
 
-use super::{Field, Hit, Limits, Marcher, Ray};
+use super::{Field, Hit, Limits, Marcher, Ray, State, Step, finish, unrelax};
 use crate::vm::cells::epsilon_at;
+use crate::vm::escape::Proofs;
 
 impl Marcher {
-    pub(super) fn march_plain(
+    pub(super) fn march_whole(
         &mut self,
         field: Field,
         rays: &[Ray],
@@ -24,25 +26,12 @@ impl Marcher {
             self.active.clear();
             (self.active)
                 .extend((0..rays.len() as u32).filter(|&i| rays[i as usize].interior == interior));
-            if self.active.is_empty() {
-                continue;
-            }
+            // Rays proven clear of every object from where they start leave for the sky.
+            self.active.retain(|&i| {
+                let k = i as usize;
+                !escapes(field, &rays[k], &mut self.state[k], &mut self.proofs)
+            });
             while !self.active.is_empty() {
-                // Rays proven clear of every object leave for the sky.
-                self.active.retain(|&i| {
-                    let (r, st) = (&rays[i as usize], &mut self.state[i as usize]);
-                    if st.t < st.escape_at {
-                        return true;
-                    }
-                    st.escape_at = 2.0 * st.t + 1.0;
-                    !field.escape.escapes(
-                        r.o + r.d * st.t,
-                        r.d,
-                        interior,
-                        &mut st.keep,
-                        &mut self.proofs,
-                    )
-                });
                 self.next.clear();
                 self.lanes.points.clear();
                 (self.lanes.points).extend(self.active.iter().map(|&i| {
@@ -52,40 +41,54 @@ impl Marcher {
                 self.lanes.run(tape);
                 self.evaluations += self.active.len() as u64;
                 self.instructions += (self.active.len() * tape.code.len()) as u64;
-                {
-                    for (&i, &(d, near)) in self.active.iter().zip(&self.lanes.out) {
-                        let (k, r) = (i as usize, &rays[i as usize]);
-                        let st = &mut self.state[k];
-                        let d = d as f64;
-                        if d.is_nan() {
-                            // NaN from a user's field ends the ray like a ray that ran out.
-                            hits[k] = Hit::OutOfSteps;
-                            continue;
+                for (&i, &(d, near)) in self.active.iter().zip(&self.lanes.out) {
+                    let (k, r) = (i as usize, &rays[i as usize]);
+                    let st = &mut self.state[k];
+                    let d = d as f64;
+                    if d.is_nan() {
+                        // NaN from a user's field ends the ray like a ray that ran out.
+                        hits[k] = Hit::OutOfSteps;
+                        continue;
+                    }
+                    let step = if let Some(back) = unrelax(st, d) {
+                        back
+                    } else if d < epsilon_at(r.o + r.d * st.t, limits.epsilon) && near >= 0.0 {
+                        Step::Hit {
+                            t: st.t,
+                            object: near as usize,
                         }
-                        if d < epsilon_at(r.o + r.d * st.t, limits.epsilon) && near >= 0.0 {
-                            hits[k] = if st.t < r.tmax {
-                                Hit::Surface {
-                                    t: st.t,
-                                    object: near as usize,
-                                }
-                            } else {
-                                Hit::Beyond
-                            };
-                            continue;
+                    } else {
+                        // A relaxed step is only verified at the next point, so none may end
+                        // the segment: the last step to `tmax` is a plain one.
+                        let d = d.max(0.0);
+                        let mut step = st.omega * d;
+                        if st.t + step >= r.tmax {
+                            step = d;
                         }
-                        st.t += d.max(0.0);
-                        st.steps += 1;
-                        if st.t >= r.tmax {
-                            hits[k] = Hit::Beyond;
-                        } else if st.steps >= limits.max_steps {
-                            hits[k] = Hit::OutOfSteps;
-                        } else {
-                            self.next.push(i);
-                        }
+                        (st.radius, st.step) = (d, step);
+                        Step::Advance(step)
+                    };
+                    finish(st, &mut self.next, k, r, step, limits, hits);
+                    // Rays proven clear of every object from here on leave for the sky.
+                    if self.next.last() == Some(&i) && escapes(field, r, st, &mut self.proofs) {
+                        self.next.pop();
+                        hits[k] = Hit::Beyond;
                     }
                 }
                 std::mem::swap(&mut self.active, &mut self.next);
             }
         }
     }
+}
+
+/// Whether the ray, once it has gone twice as far as at its last try, provably meets no
+/// surface from where it is known to be clear: a relaxed step is checked only at the next
+/// point, so that is where the last step would have ended as a plain one.
+fn escapes(field: Field, r: &Ray, st: &mut State, proofs: &mut Proofs) -> bool {
+    if st.t < st.escape_at {
+        return false;
+    }
+    st.escape_at = 4.0 * st.t + 4.0;
+    let clear = st.t - (st.step - st.radius).max(0.0);
+    (field.escape).escapes(r.o + r.d * clear, r.d, r.interior, &mut st.keep, proofs)
 }
