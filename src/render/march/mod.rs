@@ -258,8 +258,7 @@ impl Marcher {
                             hits[k] = Hit::Beyond;
                             continue;
                         }
-                        // Try again once the ray has gone twice as far.
-                        st.escape_at = 2.0 * st.t + 1.0;
+                        st.escape_at = retry(st.t);
                     }
                     // Objects the ray provably never meets no longer shorten its steps.
                     if st.keep != unbounded {
@@ -521,6 +520,13 @@ fn past(exit: f64, cell: &Cell) -> f64 {
         1.0 + exit
     };
     exit + 1e-9 * nudge
+}
+
+/// Where a ray whose escape proof failed at `t` tries again: once it has gone four times as
+/// far. A proof costs a few steps' worth of interval bounds and fails all along a ray in a
+/// lattice, which never leaves it; retrying at `2t + 1` was an eighth of a tiling's render.
+fn retry(t: f64) -> f64 {
+    4.0 * t + 4.0
 }
 
 /// Apply one step's outcome to ray `k`: record its hit, or move it on and keep it marching

@@ -4,9 +4,9 @@
 //! whole-tape marcher, `--marcher whole`) steps are over-relaxed and checked as the cells'
 //! are (`unrelax`); without it (`--marcher plain`) each step is the distance itself: the
 //! baseline the other marchers are timed and tested against. A ray sees the sky on the same
-//! proof as there (`Escape::escapes`), tried each time it has gone twice as far.
+//! proof as there (`Escape::escapes`), retried as there (`retry`).
 
-use super::{Field, Hit, Limits, Marcher, Ray, State, Step, finish, unrelax};
+use super::{Field, Hit, Limits, Marcher, Ray, State, Step, finish, retry, unrelax};
 use crate::vm::cells::epsilon_at;
 use crate::vm::escape::Proofs;
 
@@ -81,14 +81,14 @@ impl Marcher {
     }
 }
 
-/// Whether the ray, once it has gone twice as far as at its last try, provably meets no
+/// Whether the ray, once it has gone far enough past its last try (`retry`), provably meets no
 /// surface from where it is known to be clear: a relaxed step is checked only at the next
 /// point, so that is where the last step would have ended as a plain one.
 fn escapes(field: Field, r: &Ray, st: &mut State, proofs: &mut Proofs) -> bool {
     if st.t < st.escape_at {
         return false;
     }
-    st.escape_at = 4.0 * st.t + 4.0;
+    st.escape_at = retry(st.t);
     let clear = st.t - (st.step - st.radius).max(0.0);
     (field.escape).escapes(r.o + r.d * clear, r.d, r.interior, &mut st.keep, proofs)
 }
