@@ -332,7 +332,7 @@ fn language_server_session() {
     use serde_json::json;
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().canonicalize().expect("a path").join("scene.4ds");
-    let text = "let radius = 0.5\nobject ball { shape = hypersphere( radius ) }\nobject b2 { shape = hypersfere(1) }\n";
+    let text = "let radius = 0.5\nobject ball { shape = hypersphere( radius ) }\nobject b2 { shape = hypersfere(1) }\nsky = rgb(0.5)\n";
     std::fs::write(&path, text).expect("written");
     let uri = format!("file://{}", path.display());
     let doc = json!({"uri": uri});
@@ -451,7 +451,7 @@ fn language_server_session() {
     );
     assert_eq!(
         edits[0]["newText"],
-        "let radius = 0.5\nobject ball { shape = hypersphere(radius) }\nobject b2 { shape = hypersfere(1) }\n"
+        "let radius = 0.5\nobject ball { shape = hypersphere(radius) }\nobject b2 { shape = hypersfere(1) }\nsky = rgb(0.5)\n"
     );
 
     // Fixing the mistake clears the diagnostics.
@@ -575,13 +575,34 @@ fn tutorial_scenes_check_and_are_formatted() {
             Ok(text.as_str()),
             "{path} is not formatted"
         );
-        if step <= 2 {
+        if step != 3 {
             assert!(
                 tutorial.contains(&text),
                 "docs/tutorial.md does not show {path} as it is"
             );
         }
     }
+}
+
+/// Every snippet of the tutorial that is a whole scene (it has a `render` block) is lit: copied
+/// as shown, it does not render black.
+#[test]
+fn tutorial_scenes_are_lit() {
+    let text = std::fs::read_to_string("docs/tutorial.md").expect("the tutorial");
+    let mut checked = 0;
+    for block in text.split("```").skip(1).step_by(2) {
+        let Some(body) = block.strip_prefix('\n') else {
+            continue;
+        };
+        if !body.contains("render {") {
+            continue;
+        }
+        checked += 1;
+        let c = hyperslice::Compilation::from_source("snippet.4ds", body);
+        let codes: Vec<&str> = c.diagnostics.iter().map(|d| d.code).collect();
+        assert!(codes.is_empty(), "{codes:?} for the snippet\n{body}");
+    }
+    assert!(checked >= 2, "only {checked} whole scenes in the tutorial");
 }
 
 /// Every code block of the reference and the tutorial that is a whole scene is formatted.

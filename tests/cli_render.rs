@@ -264,3 +264,55 @@ fn compile_picks_the_frame() {
         "{err}"
     );
 }
+
+/// A scene in which nothing gives off light renders black: `check` and `render` both say so,
+/// and say how to light it.
+#[test]
+fn an_unlit_scene_is_warned_about() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(
+        dir.path().join("dark.4ds"),
+        "object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8)) }\n",
+    )
+    .expect("written");
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "dark.4ds"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("[W0005]"), "{err}");
+    assert!(
+        err.contains("add a light, an emission, or a sky colour"),
+        "{err}"
+    );
+    assert!(err.contains("1 warning"), "{err}");
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render", "--color", "never", "dark.4ds", "-o", "dark.png", "--size", "4x4", "--spp",
+            "1",
+        ],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("[W0005]"), "{err}");
+    // Lit by the sky, by a lamp, by an emission, or by a material map that may emit: no word.
+    for lit in [
+        "sky = rgb(0.1)\nobject ball { shape = hypersphere(1) }",
+        "object lamp { shape = hypersphere(1) material = light() }",
+        "object ball { shape = hypersphere(1) material = diffuse(emission: rgb(0.5)) }",
+        "object ball { shape = hypersphere(1) material = |p, n| if p.x > 0 { light() } else { diffuse() } }",
+        "object ball { shape = hypersphere(1) material = |p, n| diffuse(emission: rgb(p.x)) }",
+    ] {
+        std::fs::write(dir.path().join("lit.4ds"), lit).expect("written");
+        let o = hyperslice(dir.path(), &["check", "--color", "never", "lit.4ds"]);
+        let err = stderr(&o);
+        assert!(o.status.success() && !err.contains("W0005"), "{lit}: {err}");
+    }
+    // A map that only chooses between materials that cannot emit is certain to be dark.
+    std::fs::write(
+        dir.path().join("map.4ds"),
+        "object ball { shape = hypersphere(1) material = |p, n| if p.x > 0 { mirror() } else { diffuse(albedo: rgb(p.y)) } }",
+    )
+    .expect("written");
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "map.4ds"]);
+    assert!(stderr(&o).contains("[W0005]"), "{}", stderr(&o));
+}

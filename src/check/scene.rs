@@ -384,6 +384,28 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                 .help("add one, as in `object ball { shape = hypersphere(1) }`"),
         );
     }
+    if !objects.is_empty()
+        && sky.iter().all(|x| *x == 0.0)
+        && !ck.diags.iter().any(|d| d.is_error())
+        && !objects.iter().any(|o| may_emit(&ck.fields, &o.material))
+    {
+        // Certain that nothing gives off light: every picture would be black.
+        ck.diags.push(
+            Diagnostic::warning("W0005", "nothing in the scene gives off light")
+                .label(
+                    Span::new(root, 0, 0),
+                    "every frame of this scene renders black",
+                )
+                .note(
+                    "the sky is black (the default), no object is a `light(...)` and no \
+                     `diffuse` has an `emission`",
+                )
+                .help(
+                    "add a light, an emission, or a sky colour, as in \
+                     `sky = rgb(0.6, 0.7, 0.9)` or `material = light(intensity: 5)`",
+                ),
+        );
+    }
     let fields = std::mem::take(&mut ck.fields);
     Scene {
         render,
@@ -490,4 +512,38 @@ fn object(
         shape,
         material,
     })
+}
+
+/// Whether a material may give off light: `false` only when that is certain (a field that is
+/// not a choice between constant materials may emit).
+fn may_emit(fields: &Fields, material: &crate::scene::Param<Rc<Material>>) -> bool {
+    match material {
+        crate::scene::Param::Const(m) => material_may_emit(fields, m),
+        crate::scene::Param::Field(id) => field_may_emit(fields, *id),
+    }
+}
+
+fn field_may_emit(fields: &Fields, id: FieldId) -> bool {
+    match &fields.get(id).op {
+        FieldOp::Const(Const::Material(m)) => material_may_emit(fields, m),
+        FieldOp::Select(_, a, b) => field_may_emit(fields, *a) || field_may_emit(fields, *b),
+        FieldOp::Index(xs, _) => xs.iter().any(|x| field_may_emit(fields, *x)),
+        _ => true,
+    }
+}
+
+fn material_may_emit(fields: &Fields, m: &Material) -> bool {
+    let black = |c: &crate::scene::Param<[f64; 3]>| match c {
+        crate::scene::Param::Const(c) => c.iter().all(|x| *x == 0.0),
+        crate::scene::Param::Field(id) => {
+            matches!(&fields.get(*id).op, FieldOp::Const(Const::Color(c)) if c.iter().all(|x| *x == 0.0))
+        }
+    };
+    match m {
+        Material::Diffuse { emission, .. } => !black(emission),
+        Material::Light { color, intensity } => {
+            !(black(color) || matches!(intensity, crate::scene::Param::Const(x) if *x == 0.0))
+        }
+        _ => false,
+    }
 }
