@@ -24,37 +24,37 @@ pub struct RenderArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Image size, as WIDTHxHEIGHT (e.g. 160x120).
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_size)]
     size: Option<(u32, u32)>,
     /// Number of frames (t goes from 0 to 1 over them).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_frames)]
     frames: Option<u32>,
     /// Samples per pixel.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_spp)]
     spp: Option<u32>,
     /// Most bounces of one light path.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_bounces)]
     bounces: Option<u32>,
     /// Marching epsilon: how close to a surface counts as a hit, in (0, 1].
-    #[arg(long, value_parser = parse_epsilon)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_epsilon)]
     epsilon: Option<f64>,
     /// Most marching steps along one ray.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_max_steps)]
     max_steps: Option<u32>,
-    /// Random seed.
-    #[arg(long)]
+    /// Random seed, from 0 to 2^53.
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
     seed: Option<u64>,
     /// Worker threads (0: every core).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: Option<u32>,
     /// Quality preset: sets spp, bounces, epsilon and max steps (explicit flags win).
     #[arg(long)]
     quality: Option<QualityArg>,
     /// Brightness multiplier, in (0, 1000000].
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_exposure)]
     exposure: Option<f64>,
     /// Frames per second of the animation, in (0, 100].
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_fps)]
     fps: Option<f64>,
     /// Denoising filter applied to the frames.
     #[arg(long)]
@@ -62,11 +62,11 @@ pub struct RenderArgs {
     /// Render progressively within this much time for the whole run, denoising and encoding
     /// included (e.g. 30s, 2m, 500ms); every pixel takes at least one sample. `spp` becomes the
     /// most samples a pixel takes (default then 1000000).
-    #[arg(long, value_parser = parse_duration)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_duration)]
     time_budget: Option<Duration>,
     /// Adaptive sampling: a pixel stops once the standard error of its luminance is below this
     /// fraction of its mean (e.g. 0.02); `spp` is the most it takes.
-    #[arg(long, value_parser = parse_fraction)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_fraction)]
     noise_threshold: Option<f64>,
     /// Next-event estimation towards spherical lights (with multiple importance sampling).
     #[arg(long, default_value = "on")]
@@ -117,11 +117,18 @@ enum Switch {
     Off,
 }
 
+/// A duration with its unit: `30s`, `2m`, `500ms`, `1.5h`. A bare number is refused, since
+/// whether `5` means seconds or minutes would be a guess.
 fn parse_duration(s: &str) -> Result<Duration, String> {
     let err = || format!("`{s}` is not a duration; write e.g. 30s, 2m or 500ms");
-    let (number, unit) = s
-        .find(|c: char| c.is_ascii_alphabetic())
-        .map_or((s, "s"), |i| s.split_at(i));
+    let t = s.trim();
+    let Some(i) = t.find(|c: char| c.is_ascii_alphabetic()) else {
+        return Err(match t.parse::<f64>() {
+            Ok(_) => format!("`{s}` has no unit; write {t}s for seconds (or {t}m, {t}ms)"),
+            Err(_) => err(),
+        });
+    };
+    let (number, unit) = t.split_at(i);
     let x: f64 = number.trim().parse().map_err(|_| err())?;
     let seconds = match unit {
         "ms" => x / 1e3,
@@ -133,8 +140,31 @@ fn parse_duration(s: &str) -> Result<Duration, String> {
     if seconds.is_finite() && seconds > 0.0 && seconds < 1e7 {
         Ok(Duration::from_secs_f64(seconds))
     } else {
-        Err(err())
+        Err(format!(
+            "`{s}` is out of range: a duration must be more than 0s and less than 10000000s"
+        ))
     }
+}
+
+/// The flags of the render settings take the ranges the scene's `render` block takes.
+macro_rules! setting_flags {
+    ($($f:ident: $t:ty = $range:ident,)*) => {$(
+        pub(crate) fn $f(s: &str) -> Result<$t, String> {
+            hyperslice::scene::ranges::$range.parse(s).map(|x| x as $t)
+        }
+    )*};
+}
+
+setting_flags! {
+    parse_frames: u32 = FRAMES,
+    parse_spp: u32 = SPP,
+    parse_bounces: u32 = BOUNCES,
+    parse_max_steps: u32 = MAX_STEPS,
+    parse_seed: u64 = SEED,
+    parse_threads: u32 = THREADS,
+    parse_epsilon: f64 = EPSILON,
+    parse_fps: f64 = FPS,
+    parse_exposure: f64 = EXPOSURE,
 }
 
 /// `A..B`, `A..=B` or `A..` (to the last frame).
@@ -175,9 +205,14 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn parse_fraction(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
+    match s.trim().parse::<f64>() {
         Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
-        _ => Err(format!("`{s}` is not in (0, 1)")),
+        Ok(_) => Err(format!(
+            "`{s}` is out of range: it must be a number in (0, 1)"
+        )),
+        Err(_) => Err(format!(
+            "`{s}` is not a number: it must be a number in (0, 1)"
+        )),
     }
 }
 
@@ -192,27 +227,8 @@ enum QualityArg {
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let err = || format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 160x120");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let side = |v: &str| match v.trim().parse::<u32>() {
-        Ok(n) if (1..=16384).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "`{v}` is not a valid side; each side is a whole number in 1..=16384"
-        )),
-    };
+    let side = |v: &str| hyperslice::scene::ranges::SIDE.parse(v).map(|x| x as u32);
     Ok((side(w)?, side(h)?))
-}
-
-fn parse_epsilon(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x > 0.0 && x <= 1.0 => Ok(x),
-        _ => Err(format!("`{s}` is not in (0, 1]")),
-    }
-}
-
-fn parse_positive(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x > 0.0 && x <= 1e6 && x.is_finite() => Ok(x),
-        _ => Err(format!("`{s}` is not a positive number")),
-    }
 }
 
 impl RenderArgs {
@@ -785,10 +801,10 @@ pub struct MergeArgs {
     #[arg(long)]
     denoise: Option<Denoise>,
     /// Brightness multiplier (default: the scene's).
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_exposure)]
     exposure: Option<f64>,
     /// Frames per second of a GIF (default: the scene's).
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_fps)]
     fps: Option<f64>,
 }
 

@@ -316,3 +316,105 @@ fn an_unlit_scene_is_warned_about() {
     let o = hyperslice(dir.path(), &["check", "--color", "never", "map.4ds"]);
     assert!(stderr(&o).contains("[W0005]"), "{}", stderr(&o));
 }
+
+/// A flag takes the values its scene setting takes, and a refusal gives the value and the
+/// range; a negative number gets the range, not clap's `-- -1` tip; a duration needs its unit.
+#[test]
+fn flags_take_the_ranges_of_the_scene_settings() {
+    let dir = scene_dir();
+    for (flag, value, says) in [
+        (
+            "--spp",
+            "-1",
+            "`-1` is out of range: spp must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--spp=-1",
+            "",
+            "`-1` is out of range: spp must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--spp",
+            "1.5",
+            "`1.5` is not a whole number: spp must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--fps",
+            "1000",
+            "`1000` is out of range: fps must be a number in (0, 100]",
+        ),
+        (
+            "--fps",
+            "-2",
+            "`-2` is out of range: fps must be a number in (0, 100]",
+        ),
+        (
+            "--frames",
+            "0",
+            "frames must be a whole number from 1 to 10000",
+        ),
+        (
+            "--bounces",
+            "-1",
+            "bounces must be a whole number from 0 to 1000",
+        ),
+        (
+            "--max-steps",
+            "0",
+            "max_steps must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--threads",
+            "2000",
+            "threads must be a whole number from 0 to 1024",
+        ),
+        (
+            "--exposure",
+            "0",
+            "exposure must be a number in (0, 1000000]",
+        ),
+        ("--epsilon", "2", "epsilon must be a number in (0, 1]"),
+        (
+            "--seed",
+            "-1",
+            "seed must be a whole number from 0 to 9007199254740992",
+        ),
+        (
+            "--size",
+            "-4x3",
+            "each side of the image must be a whole number from 1 to 16384",
+        ),
+        ("--time-budget", "5", "`5` has no unit; write 5s"),
+        (
+            "--time-budget",
+            "0s",
+            "`0s` is out of range: a duration must be more than 0s",
+        ),
+        ("--time-budget", "-1s", "`-1s` is out of range"),
+    ] {
+        let args: Vec<&str> = ["render", "scene.4ds", flag, value]
+            .into_iter()
+            .filter(|a| !a.is_empty())
+            .collect();
+        let o = hyperslice(dir.path(), &args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{flag} {value}: {err}");
+        assert!(err.contains(says), "{flag} {value}: {err}");
+        assert!(
+            !err.contains("as a value"),
+            "{flag} {value}: clap's tip in {err}"
+        );
+    }
+    // The scene's own settings say the same.
+    std::fs::write(
+        dir.path().join("fast.4ds"),
+        "render { fps = 1000 }\nsky = rgb(1)\nobject b { shape = hypersphere(1) }",
+    )
+    .unwrap();
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "fast.4ds"]);
+    assert!(
+        stderr(&o).contains("this is 1000, but fps must lie in (0, 100]"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -7,6 +7,7 @@ pub mod field;
 pub mod lattice;
 pub mod material;
 pub mod print;
+pub mod ranges;
 pub mod shape;
 pub mod types;
 
