@@ -294,6 +294,50 @@ fn interrupted() -> &'static AtomicBool {
     &FLAG
 }
 
+/// Refuse a render whose frames in flight (or, when `finishing`, whose denoising of `frames`
+/// frames) need more memory than the machine has available, before anything is written: it
+/// would otherwise abort part-way with a failed allocation.
+fn refuse_what_memory_cannot_hold(
+    r: &RenderSettings,
+    units: &[driver::Unit],
+    finishing: bool,
+    frames: usize,
+) -> hyperslice::error::Result<()> {
+    use hyperslice::farm::memory;
+    let threads = match r.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n as usize,
+    };
+    let in_flight = threads.min(driver::FRAME_GROUP).min(units.len()).max(1);
+    let finish = finishing.then_some((r.denoise, frames));
+    let needed = memory::needed(r.width, r.height, in_flight, finish);
+    let (available, known) = match memory::available() {
+        Some(a) => (a, true),
+        None => (memory::UNKNOWN_AVAILABLE, false),
+    };
+    if needed <= available {
+        return Ok(());
+    }
+    let per_pixel = needed as f64 / (r.width as f64 * r.height as f64) / 1000.0;
+    let more = if in_flight > 1 || frames > 1 {
+        ", or hold fewer frames at once with --threads 1 or --frame-range"
+    } else {
+        ""
+    };
+    Err(hyperslice::Error::Usage(format!(
+        "a {} x {} render needs about {} of memory ({per_pixel:.2} KB a pixel), but {} {}; make the image smaller with --size{more}",
+        r.width,
+        r.height,
+        memory::human(needed),
+        memory::human(available),
+        if known {
+            "is available"
+        } else {
+            "is the most assumed when the memory available is unknown"
+        },
+    )))
+}
+
 /// The hidden film directory beside `out` for a render without `--films`.
 fn hidden_films(out: &Path) -> PathBuf {
     let name = out.file_name().unwrap_or_default().to_string_lossy();
@@ -363,10 +407,11 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         noise_threshold: args.noise_threshold,
         ..Options::default()
     };
+    let units = part.units(r.spp);
+    refuse_what_memory_cannot_hold(r, &units, shard.1 == 1, frames.len())?;
     let dir = args.films.clone().unwrap_or_else(|| hidden_films(&out));
     let name = args.file.file_name().unwrap_or_default().to_string_lossy();
     let mut films = FilmDir::open(&dir, &scene, &name, &options, part)?;
-    let units = part.units(r.spp);
     let earlier = match films.survey(&units) {
         // The hidden films of an earlier, interrupted render of another scene or other
         // settings: nobody asked to keep them, and they cannot be used.
@@ -543,10 +588,15 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         .collect();
     if args.films.is_none() {
         // The output is written; the hidden films have served.
-        std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
-            path: dir.clone(),
-            source,
-        })?;
+        match std::fs::remove_dir_all(&dir) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(Error::RemoveFilms {
+                    path: dir.clone(),
+                    source: e,
+                });
+            }
+            _ => {}
+        }
     }
     let times = Times {
         render_secs,

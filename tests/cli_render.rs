@@ -418,3 +418,54 @@ fn flags_take_the_ranges_of_the_scene_settings() {
         stderr(&o)
     );
 }
+
+/// A size the machine cannot hold is refused at once, with the memory it needs and what to do,
+/// and leaves no films folder behind (the folder appears with the first film).
+#[test]
+fn refuses_a_render_too_large_for_memory() {
+    let dir = scene_dir();
+    let started = std::time::Instant::now();
+    // 16384 x 16384 with 100 frames denoised across: over 500 GiB.
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "huge.gif",
+            "--size",
+            "16384x16384",
+            "--frames",
+            "100",
+        ],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        started.elapsed().as_secs() < 20,
+        "took {:?}",
+        started.elapsed()
+    );
+    assert!(err.contains("render needs about"), "{err}");
+    assert!(err.contains("GiB of memory"), "{err}");
+    assert!(err.contains("--size"), "{err}");
+    assert_eq!(files(dir.path()), ["scene.4ds"]);
+    // A render that fits makes its films folder only to write films, and removes it after.
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "small.png",
+            "--size",
+            "8x6",
+            "--spp",
+            "1",
+            "--frames",
+            "1",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files(dir.path()), ["scene.4ds", "small.png"]);
+}

@@ -46,7 +46,9 @@ pub struct FilmDir {
 }
 
 impl FilmDir {
-    /// Open (and create) `dir` for rendering `part` of `scene`, named `scene_name` in messages.
+    /// Open `dir` for rendering `part` of `scene`, named `scene_name` in messages. The directory
+    /// is created when the first film is saved, so a render refused or stopped before that
+    /// leaves none behind.
     pub fn open(
         dir: &Path,
         scene: &Scene,
@@ -54,10 +56,6 @@ impl FilmDir {
         options: &Options,
         part: Part,
     ) -> Result<FilmDir> {
-        std::fs::create_dir_all(dir).map_err(|source| Error::CreateDirectory {
-            path: dir.to_path_buf(),
-            source,
-        })?;
         let r = &scene.render;
         let fingerprint = Fingerprint::of(scene, options);
         let template = FilmMeta {
@@ -222,6 +220,10 @@ impl Store for FilmDir {
         let header = serde_json::to_string(&meta).expect("film meta serialises");
         let (w, h) = (meta.width as usize, meta.height as usize);
         let bytes = crate::film::file::encode(&header, w, h, &p.sums)?;
+        std::fs::create_dir_all(&self.dir).map_err(|source| Error::CreateDirectory {
+            path: self.dir.clone(),
+            source,
+        })?;
         Ok(crate::output::write_atomic(&self.path_of(&p.unit), &bytes)?)
     }
 }
