@@ -98,6 +98,11 @@ pub struct RenderArgs {
     /// `hyperslice merge` puts the parts' films together.
     #[arg(long, value_name = "K/N", value_parser = parse_shard, requires = "films")]
     shard: Option<(u32, u32)>,
+    /// Discard the films an earlier, interrupted render of this output (or this part of the
+    /// --films DIR) left, instead of resuming from them. Without it, films of other settings
+    /// are refused, never thrown away.
+    #[arg(long)]
+    restart: bool,
     /// Remove numbered frames (out_0042.png) beyond the animation's last frame that an earlier,
     /// longer render left beside the output (without it they are only reported).
     #[arg(long)]
@@ -338,6 +343,29 @@ fn refuse_what_memory_cannot_hold(
     )))
 }
 
+/// `--restart`: remove the films of `units` (the whole folder when it is the hidden one).
+fn discard_films(
+    films: &hyperslice::farm::films::FilmDir,
+    units: &[driver::Unit],
+    hidden: bool,
+) -> hyperslice::error::Result<()> {
+    let gone = |r: std::io::Result<()>| match r {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    };
+    let removed = if hidden {
+        gone(std::fs::remove_dir_all(films.dir()))
+    } else {
+        units
+            .iter()
+            .try_for_each(|u| gone(std::fs::remove_file(films.path_of(u))))
+    };
+    removed.map_err(|source| hyperslice::Error::RemoveFilms {
+        path: films.dir().to_path_buf(),
+        source,
+    })
+}
+
 /// The hidden film directory beside `out` for a render without `--films`.
 fn hidden_films(out: &Path) -> PathBuf {
     let name = out.file_name().unwrap_or_default().to_string_lossy();
@@ -411,21 +439,34 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     refuse_what_memory_cannot_hold(r, &units, shard.1 == 1, frames.len())?;
     let dir = args.films.clone().unwrap_or_else(|| hidden_films(&out));
     let name = args.file.file_name().unwrap_or_default().to_string_lossy();
-    let mut films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+    let films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+    if args.restart {
+        discard_films(&films, &units, args.films.is_none())?;
+    }
+    if shard.1 > 1 {
+        // Another shard's films of other settings would only be refused at `merge`.
+        films.check_shards(&units)?;
+    }
     let earlier = match films.survey(&units) {
-        // The hidden films of an earlier, interrupted render of another scene or other
-        // settings: nobody asked to keep them, and they cannot be used.
-        Err(Error::FilmMismatch { ours, theirs, .. }) if args.films.is_none() => {
-            eprintln!(
-                "note: {} held an interrupted render with `{theirs}` where this one has `{ours}`; starting afresh",
-                dir.display()
-            );
-            std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
-                path: dir.clone(),
-                source,
-            })?;
-            films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+        // `--watch` re-renders a draft on every change: its own hidden films of the scene
+        // before the change are of no use.
+        Err(Error::FilmMismatch { .. }) if args.watch && args.films.is_none() => {
+            discard_films(&films, &units, true)?;
             films.survey(&units)?
+        }
+        // Films of other settings: the work of an earlier run, kept unless asked.
+        Err(Error::FilmMismatch { ours, theirs, path }) => {
+            return Err(Error::Usage(format!(
+                "{} holds the films of another scene or other settings: they have `{theirs}` where this render has `{ours}` (in {}); \
+                 run with the same settings to resume or reuse them, or pass --restart to discard them{}",
+                dir.display(),
+                path.file_name().unwrap_or_default().to_string_lossy(),
+                if args.films.is_some() {
+                    " (or render into another --films directory)"
+                } else {
+                    " (or move the folder aside to keep it)"
+                }
+            )));
         }
         other => other?,
     };

@@ -113,6 +113,45 @@ impl FilmDir {
         Ok(s)
     }
 
+    /// Refuse the films in the directory of other shards than this one's `units` when they
+    /// come from another scene or other settings, or split other frames or another number of
+    /// ways: `merge` could not put them together with this shard's.
+    pub fn check_shards(&self, units: &[Unit]) -> Result<()> {
+        let entries = match std::fs::read_dir(&self.dir) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+            other => other.map_err(|source| Error::ReadFilms {
+                path: self.dir.clone(),
+                source,
+            })?,
+        };
+        let ours: Vec<String> = units.iter().map(|u| file_name(u, self.spp)).collect();
+        let mut names: Vec<(String, PathBuf)> = entries
+            .filter_map(|e| e.ok())
+            .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path()))
+            .filter(|(n, _)| n.starts_with("frame_") && n.ends_with(".exr") && !ours.contains(n))
+            .collect();
+        names.sort();
+        for (_, path) in names {
+            let meta = read_meta(&path)?;
+            self.check(&path, &meta)?;
+            let (mine, theirs) = (self.template.part, meta.part);
+            if mine.frames != theirs.frames || mine.shard[1] != theirs.shard[1] {
+                let show = |p: Part| {
+                    format!(
+                        "frames {}..{} in {} shards",
+                        p.frames[0], p.frames[1], p.shard[1]
+                    )
+                };
+                return Err(Error::FilmMismatch {
+                    path,
+                    ours: show(mine),
+                    theirs: show(theirs),
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Refuse a film made from another scene or other settings, saying what differs.
     fn check(&self, path: &Path, meta: &FilmMeta) -> Result<()> {
         if meta.fingerprint == self.fingerprint.digest {
