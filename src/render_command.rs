@@ -86,8 +86,8 @@ pub struct RenderArgs {
     frame: Option<u32>,
     /// Render only frames A..B (half-open, 0-based; A..=B includes B) of the animation, each
     /// identical to the same frame of a whole render and numbered as in it.
-    #[arg(long, value_name = "A..B", value_parser = parse_range)]
-    frame_range: Option<(u32, Option<u32>)>,
+    #[arg(long, value_name = "A..B", value_parser = parse_frame_range)]
+    frame_range: Option<FrameRange>,
     /// Keep the films (each frame's linear accumulation, multi-layer EXR) in DIR. An
     /// interrupted render run again with the same DIR resumes where it stopped. Without it,
     /// the films live in a hidden directory beside the output until the output is written.
@@ -173,6 +173,24 @@ setting_flags! {
 }
 
 /// `A..B`, `A..=B` or `A..` (to the last frame).
+/// `--frame-range`: the frames, and the text as written, for messages.
+#[derive(Clone)]
+struct FrameRange {
+    start: u32,
+    /// Excluded; `None` to the last frame.
+    end: Option<u32>,
+    text: String,
+}
+
+fn parse_frame_range(s: &str) -> Result<FrameRange, String> {
+    let (start, end) = parse_range(s)?;
+    Ok(FrameRange {
+        start,
+        end,
+        text: s.trim().to_string(),
+    })
+}
+
 fn parse_range(s: &str) -> Result<(u32, Option<u32>), String> {
     let err = || format!("`{s}` is not a frame range; write A..B (B excluded) or A..=B");
     let (a, b, inclusive) = if let Some((a, b)) = s.split_once("..=") {
@@ -366,6 +384,23 @@ fn discard_films(
     })
 }
 
+/// Frames as `--frame-range` takes them, the last included: `0..=6`, or `7..` when none.
+fn frame_span(frames: &std::ops::Range<u32>) -> String {
+    if frames.is_empty() {
+        format!("{}..", frames.start)
+    } else {
+        format!("{}..={}", frames.start, frames.end - 1)
+    }
+}
+
+/// `495,370 samples/s`: the progress bar's rate of `n` samples in `secs` seconds.
+fn sample_rate(n: u64, secs: f64) -> String {
+    format!(
+        "{} samples/s",
+        HumanCount((n as f64 / secs.max(1e-9)) as u64)
+    )
+}
+
 /// The hidden film directory beside `out` for a render without `--films`.
 fn hidden_films(out: &Path) -> PathBuf {
     let name = out.file_name().unwrap_or_default().to_string_lossy();
@@ -387,10 +422,15 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     // Fail on an unwritable path before spending any time rendering.
     output::check_writable(&out, &args.file)?;
     let r = &scene.render;
-    let frames = match (args.frame, args.frame_range) {
+    let frames = match (args.frame, &args.frame_range) {
         (Some(f), _) => f..f.saturating_add(1),
-        (None, Some((a, b))) => a..b.unwrap_or(r.frames),
+        (None, Some(range)) => range.start..range.end.unwrap_or(r.frames),
         (None, None) => 0..r.frames,
+    };
+    // The frames as the user gave them.
+    let asked = match &args.frame_range {
+        Some(range) => range.text.clone(),
+        None => frame_span(&frames),
     };
     if let Some(f) = args.frame
         && f >= r.frames
@@ -403,11 +443,10 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     }
     if frames.end > r.frames || frames.is_empty() {
         return Err(Error::Usage(format!(
-            "frames {}..{} are not all in the animation: it has {} (0..{}); set `frames` in the scene or --frames to render more",
-            frames.start,
-            frames.end,
+            "frames {} are not all in the animation: it has {} ({}); set `frames` in the scene or --frames to render more",
+            asked,
             plural(r.frames as usize, "frame"),
-            r.frames
+            frame_span(&(0..r.frames))
         )));
     }
     let shard = args.shard.unwrap_or((0, 1));
@@ -478,7 +517,7 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         if frames == (0..r.frames) {
             plural(r.frames as usize, "frame")
         } else {
-            format!("frames {}..{} of {}", frames.start, frames.end, r.frames)
+            format!("frames {asked} of {}", r.frames)
         },
         if shard.1 > 1 {
             format!(", shard {}/{}", shard.0, shard.1)
@@ -518,10 +557,8 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     let bar = if progressive {
         let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
         bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} {elapsed_precise} {human_pos} samples, {per_sec:.0} {msg}",
-            )
-            .expect("a valid template"),
+            ProgressStyle::with_template("{spinner} {elapsed_precise} {human_pos} samples, {msg}")
+                .expect("a valid template"),
         );
         bar
     } else {
@@ -535,10 +572,7 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         bar
     };
     let started = Instant::now();
-    let rate = |n: u64| {
-        let secs = started.elapsed().as_secs_f64().max(1e-9);
-        format!("{}/s samples", HumanCount((n as f64 / secs) as u64))
-    };
+    let rate = |n: u64| sample_rate(n, started.elapsed().as_secs_f64());
     let per_frame = (r.width as u64 * r.height as u64 * part_samples(&units)).max(1);
     let before = earlier.complete;
     let progress = |n: u64| {
@@ -946,4 +980,12 @@ pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
     );
     report_written(&written);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_rate_reads_samples_per_second() {
+        assert_eq!(super::sample_rate(990_740, 2.0), "495,370 samples/s");
+    }
 }

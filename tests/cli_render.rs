@@ -469,3 +469,71 @@ fn refuses_a_render_too_large_for_memory() {
     assert!(o.status.success(), "{}", stderr(&o));
     assert_eq!(files(dir.path()), ["scene.4ds", "small.png"]);
 }
+
+/// Small things a new user meets: `check` sums up a file with errors, a frame range is echoed
+/// as written, the printed scene spells settings as the language does, `.5` gets a hint, and
+/// the maths functions take what the reference says.
+#[test]
+fn rough_edges() {
+    let dir = scene_dir();
+    let d = dir.path();
+    std::fs::write(
+        d.join("bad.4ds"),
+        "let unused = 1\nobject b { shape = hypersfere(1) }\nobject c { shape = hypersfere(2) }\n",
+    )
+    .unwrap();
+    let o = hyperslice(d, &["check", "--color", "never", "bad.4ds"]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("bad.4ds: error: 2 errors, 1 warning"), "{err}");
+    std::fs::write(d.join("dot.4ds"), "let half = .5\n").unwrap();
+    let o = hyperslice(d, &["check", "--color", "never", "dot.4ds"]);
+    let err = stderr(&o);
+    assert!(err.contains("write `0.5`"), "{err}");
+    assert!(err.contains("dot.4ds: error: 1 error\n"), "{err}");
+
+    let o = hyperslice(
+        d,
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "r.png",
+            "--size",
+            "8x6",
+            "--spp",
+            "1",
+            "--frame-range",
+            "0..=1",
+        ],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("frames 0..=1 of 3"), "{err}");
+    let o = hyperslice(d, &["render", "scene.4ds", "--frame-range", "2..=5"]);
+    let err = stderr(&o);
+    assert!(
+        err.contains("frames 2..=5 are not all in the animation"),
+        "{err}"
+    );
+
+    let o = hyperslice(d, &["compile", "scene.4ds", "--emit", "scene"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("denoise \"atrous\"  quality \"custom\""),
+        "{out}"
+    );
+
+    let docs = std::fs::read_to_string("docs/language.md").unwrap();
+    assert!(
+        docs.contains(
+            "| `sqrt(x)`, `exp(x)`, `log(x)` | `num` (or `vec4`, componentwise) | same type |"
+        ),
+        "the reference's row of sqrt, exp and log"
+    );
+    let c = hyperslice::Compilation::from_source(
+        "maths.4ds",
+        "sky = rgb(1)\nobject b { shape = hypersphere(1) |> translate(sqrt([1, 4, 9, 16]) + exp([0, 0, 0, 0]) + log([1, 1, 1, 1])) }",
+    );
+    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+}
