@@ -1,7 +1,7 @@
 //! `hyperslice bench`: measure speed against accuracy on one scene (see `sweep`), print the
 //! table, and write `results.csv`, `results.md` and `plot.png`.
 
-use crate::render_command::{extent, parse_size};
+use crate::render_command::{extent, parse_frames, parse_size, parse_threads};
 use clap::Args;
 use hyperslice::output::write_atomic;
 use hyperslice::scene::Scene;
@@ -20,7 +20,7 @@ pub struct BenchArgs {
     #[arg(long, value_parser = parse_size)]
     size: Option<(u32, u32)>,
     /// Number of frames. Default: the scene's (1 with --quick).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_frames)]
     frames: Option<u32>,
     /// Least samples per pixel of the reference render; it takes at least 100 times the most
     /// samples of any configuration measured.
@@ -40,7 +40,7 @@ pub struct BenchArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Worker threads (0: every core). Default: the scene's setting (2 with --marcher-corpus).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: Option<u32>,
     /// Renders of each configuration; the time reported is their median. Default 5 (1 with
     /// --quick, 3 with --marcher-corpus).

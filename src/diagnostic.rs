@@ -84,7 +84,9 @@ impl Diagnostic {
 
     /// Render with ariadne. `color` is off for pipes and tests.
     pub fn render(&self, sources: &SourceMap, color: bool) -> String {
-        let name = |span: Span| sources.get(span.file).name.clone();
+        // Nothing from the scene reaches the terminal raw: names, messages and the echoed source
+        // show control characters as pictures.
+        let name = |span: Span| escape_controls(&sources.get(span.file).name).into_owned();
         let kind = match self.severity {
             Severity::Error => ReportKind::Error,
             Severity::Warning => ReportKind::Warning,
@@ -119,11 +121,11 @@ impl Diagnostic {
                 let mut report = Report::build(kind, (name(primary), clip(primary)))
                     .with_config(config)
                     .with_code(self.code)
-                    .with_message(&self.message);
+                    .with_message(escape_controls(&self.message));
                 for (i, l) in self.labels.iter().enumerate() {
                     let mut label = ALabel::new((name(l.span), clip(l.span))).with_order(i as i32);
                     if !l.message.is_empty() {
-                        label = label.with_message(&l.message);
+                        label = label.with_message(escape_controls(&l.message));
                     }
                     if color {
                         let c = if i == 0 {
@@ -136,16 +138,17 @@ impl Diagnostic {
                     report.add_label(label);
                 }
                 for n in &self.notes {
-                    report.add_note(n);
+                    report.add_note(escape_controls(n));
                 }
                 if let Some(h) = &self.help {
-                    report.add_help(h);
+                    report.add_help(escape_controls(h));
                 }
-                let cache = ariadne::sources(
-                    sources
-                        .files()
-                        .map(|(id, f)| (f.name.clone(), clips[id.0 as usize].1.apply(&f.text))),
-                );
+                let cache = ariadne::sources(sources.files().map(|(id, f)| {
+                    (
+                        escape_controls(&f.name).into_owned(),
+                        clips[id.0 as usize].1.apply(&f.text),
+                    )
+                }));
                 if report.finish().write(cache, &mut out).is_err() {
                     return self.to_string();
                 }
@@ -211,12 +214,13 @@ impl fmt::Display for Diagnostic {
             Severity::Error => "error",
             Severity::Warning => "warning",
         };
-        write!(f, "[{}] {}: {}", self.code, kind, self.message)?;
+        let message = escape_controls(&self.message);
+        write!(f, "[{}] {}: {}", self.code, kind, message)?;
         for n in &self.notes {
-            write!(f, "\n  note: {n}")?;
+            write!(f, "\n  note: {}", escape_controls(n))?;
         }
         if let Some(h) = &self.help {
-            write!(f, "\n  help: {h}")?;
+            write!(f, "\n  help: {}", escape_controls(h))?;
         }
         Ok(())
     }
@@ -227,23 +231,50 @@ const ECHO_PAST_LABEL: usize = 80;
 /// Lines up to this long are echoed whole.
 const MAX_ECHOED_LINE: usize = 200;
 
-/// Where overlong lines of one file are cut for a report: each cut byte range is echoed as
-/// `...`. A 300 KB line would otherwise be printed once per diagnostic.
+/// How a control character is shown in a report, as rustc does: a C0 character or DEL as its
+/// Unicode control picture (`\u{1b}` as `␛`), any other as `\u{..}`. A raw one would reach the
+/// terminal: ESC `[31m` recolours it, NUL and DEL garble it. Tabs and line breaks stay.
+pub fn control_picture(c: char) -> Option<String> {
+    if !c.is_control() || c == '\t' || crate::source::LINE_BREAKS.contains(&c) {
+        return None;
+    }
+    Some(match c as u32 {
+        n @ 0..0x20 => char::from_u32(0x2400 + n).map_or_else(String::new, String::from),
+        0x7f => "\u{2421}".to_string(),
+        n => format!("\\u{{{n:x}}}"),
+    })
+}
+
+/// `text` with every control character but tabs and line breaks shown as
+/// [`control_picture`] gives it.
+pub fn escape_controls(text: &str) -> std::borrow::Cow<'_, str> {
+    if !text.chars().any(|c| control_picture(c).is_some()) {
+        return text.into();
+    }
+    text.chars()
+        .map(|c| control_picture(c).unwrap_or_else(|| c.to_string()))
+        .collect::<String>()
+        .into()
+}
+
+/// How the text of one file is changed for a report: each overlong line is cut a little past
+/// its labels (a 300 KB line would otherwise be printed once per diagnostic) and shown as
+/// `...`, and each control character is shown as its picture. Spans move with the changed
+/// text.
 struct Clip {
-    cuts: Vec<(usize, usize)>,
+    /// Byte ranges of the text, in order and apart, and what each is shown as.
+    cuts: Vec<(usize, usize, String)>,
 }
 
 impl Clip {
     fn new(text: &str, label_starts: &[usize]) -> Clip {
-        let mut cuts = vec![];
-        if label_starts.is_empty() {
-            return Clip { cuts };
-        }
+        let mut cuts: Vec<(usize, usize, String)> = vec![];
         let mut start = 0;
         for line in text.split_inclusive(crate::source::LINE_BREAKS) {
             let body = line.trim_end_matches(crate::source::LINE_BREAKS);
             let end = start + body.len();
-            if body.len() > MAX_ECHOED_LINE {
+            let mut cut = end;
+            if body.len() > MAX_ECHOED_LINE && !label_starts.is_empty() {
                 let last = (label_starts.iter())
                     .filter(|s| (start..=end).contains(*s))
                     .max()
@@ -253,39 +284,50 @@ impl Clip {
                     keep += 1;
                 }
                 if keep + 3 < end {
-                    cuts.push((keep, end));
+                    cut = keep;
                 }
+            }
+            for (i, c) in text[start..cut].char_indices() {
+                if let Some(picture) = control_picture(c) {
+                    cuts.push((start + i, start + i + c.len_utf8(), picture));
+                }
+            }
+            if cut < end {
+                cuts.push((cut, end, "...".to_string()));
             }
             start += line.len();
         }
         Clip { cuts }
     }
 
-    /// The text with every cut replaced by `...`.
+    /// The text with every cut replaced.
     fn apply(&self, text: &str) -> String {
         let mut out = String::with_capacity(text.len().min(1 << 16));
         let mut at = 0;
-        for (a, b) in &self.cuts {
+        for (a, b, with) in &self.cuts {
             out.push_str(&text[at..*a]);
-            out.push_str("...");
+            out.push_str(with);
             at = *b;
         }
         out.push_str(&text[at..]);
         out
     }
 
-    /// Where byte `p` of the text is in the cut text; inside a cut, a span's start goes to the
-    /// `...` and its end past it.
+    /// Where byte `p` of the text is in the changed text; inside a cut, a span's start goes to
+    /// the start of what replaces it and its end past it.
     fn map(&self, p: usize, is_end: bool) -> usize {
-        let mut shift = 0;
-        for (a, b) in &self.cuts {
+        let mut shift: isize = 0;
+        for (a, b, with) in &self.cuts {
             if p >= *b {
-                shift += b - a - 3;
+                shift += with.len() as isize - (b - a) as isize;
             } else if p > *a {
-                return a - shift + if is_end { 3 } else { 0 };
+                let at = (*a as isize + shift) as usize;
+                return at + if is_end { with.len() } else { 0 };
+            } else {
+                break;
             }
         }
-        p - shift
+        (p as isize + shift) as usize
     }
 }
 

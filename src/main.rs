@@ -139,6 +139,21 @@ fn main() -> ExitCode {
                 args.report(&c, color);
                 if c.has_errors() {
                     failed = true;
+                    let errors = c.diagnostics.iter().filter(|d| d.is_error()).count();
+                    let warnings = c.diagnostics.len() - errors;
+                    let count = |n: usize, what: &str| {
+                        format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+                    };
+                    eprintln!(
+                        "{}: error: {}{}",
+                        file.display(),
+                        count(errors, "error"),
+                        if warnings > 0 {
+                            format!(", {}", count(warnings, "warning"))
+                        } else {
+                            String::new()
+                        }
+                    );
                 } else if let Some(scene) = &c.scene {
                     let warnings = c.diagnostics.len();
                     let Some(tape) = c.program(At::default()).map(|p| p.scene) else {

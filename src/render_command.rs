@@ -24,37 +24,37 @@ pub struct RenderArgs {
     #[arg(short, long)]
     output: Option<PathBuf>,
     /// Image size, as WIDTHxHEIGHT (e.g. 160x120).
-    #[arg(long, value_parser = parse_size)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_size)]
     size: Option<(u32, u32)>,
     /// Number of frames (t goes from 0 to 1 over them).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=10000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_frames)]
     frames: Option<u32>,
     /// Samples per pixel.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_spp)]
     spp: Option<u32>,
     /// Most bounces of one light path.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_bounces)]
     bounces: Option<u32>,
     /// Marching epsilon: how close to a surface counts as a hit, in (0, 1].
-    #[arg(long, value_parser = parse_epsilon)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_epsilon)]
     epsilon: Option<f64>,
     /// Most marching steps along one ray.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_max_steps)]
     max_steps: Option<u32>,
-    /// Random seed.
-    #[arg(long)]
+    /// Random seed, from 0 to 2^53.
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
     seed: Option<u64>,
     /// Worker threads (0: every core).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(0..=1024))]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
     threads: Option<u32>,
     /// Quality preset: sets spp, bounces, epsilon and max steps (explicit flags win).
     #[arg(long)]
     quality: Option<QualityArg>,
     /// Brightness multiplier, in (0, 1000000].
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_exposure)]
     exposure: Option<f64>,
     /// Frames per second of the animation, in (0, 100].
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_fps)]
     fps: Option<f64>,
     /// Denoising filter applied to the frames.
     #[arg(long)]
@@ -62,11 +62,11 @@ pub struct RenderArgs {
     /// Render progressively within this much time for the whole run, denoising and encoding
     /// included (e.g. 30s, 2m, 500ms); every pixel takes at least one sample. `spp` becomes the
     /// most samples a pixel takes (default then 1000000).
-    #[arg(long, value_parser = parse_duration)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_duration)]
     time_budget: Option<Duration>,
     /// Adaptive sampling: a pixel stops once the standard error of its luminance is below this
     /// fraction of its mean (e.g. 0.02); `spp` is the most it takes.
-    #[arg(long, value_parser = parse_fraction)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_fraction)]
     noise_threshold: Option<f64>,
     /// Next-event estimation towards spherical lights (with multiple importance sampling).
     #[arg(long, default_value = "on")]
@@ -86,8 +86,8 @@ pub struct RenderArgs {
     frame: Option<u32>,
     /// Render only frames A..B (half-open, 0-based; A..=B includes B) of the animation, each
     /// identical to the same frame of a whole render and numbered as in it.
-    #[arg(long, value_name = "A..B", value_parser = parse_range)]
-    frame_range: Option<(u32, Option<u32>)>,
+    #[arg(long, value_name = "A..B", value_parser = parse_frame_range)]
+    frame_range: Option<FrameRange>,
     /// Keep the films (each frame's linear accumulation, multi-layer EXR) in DIR. An
     /// interrupted render run again with the same DIR resumes where it stopped. Without it,
     /// the films live in a hidden directory beside the output until the output is written.
@@ -98,6 +98,11 @@ pub struct RenderArgs {
     /// `hyperslice merge` puts the parts' films together.
     #[arg(long, value_name = "K/N", value_parser = parse_shard, requires = "films")]
     shard: Option<(u32, u32)>,
+    /// Discard the films an earlier, interrupted render of this output (or this part of the
+    /// --films DIR) left, instead of resuming from them. Without it, films of other settings
+    /// are refused, never thrown away.
+    #[arg(long)]
+    restart: bool,
     /// Remove numbered frames (out_0042.png) beyond the animation's last frame that an earlier,
     /// longer render left beside the output (without it they are only reported).
     #[arg(long)]
@@ -117,11 +122,18 @@ enum Switch {
     Off,
 }
 
+/// A duration with its unit: `30s`, `2m`, `500ms`, `1.5h`. A bare number is refused, since
+/// whether `5` means seconds or minutes would be a guess.
 fn parse_duration(s: &str) -> Result<Duration, String> {
     let err = || format!("`{s}` is not a duration; write e.g. 30s, 2m or 500ms");
-    let (number, unit) = s
-        .find(|c: char| c.is_ascii_alphabetic())
-        .map_or((s, "s"), |i| s.split_at(i));
+    let t = s.trim();
+    let Some(i) = t.find(|c: char| c.is_ascii_alphabetic()) else {
+        return Err(match t.parse::<f64>() {
+            Ok(_) => format!("`{s}` has no unit; write {t}s for seconds (or {t}m, {t}ms)"),
+            Err(_) => err(),
+        });
+    };
+    let (number, unit) = t.split_at(i);
     let x: f64 = number.trim().parse().map_err(|_| err())?;
     let seconds = match unit {
         "ms" => x / 1e3,
@@ -133,11 +145,52 @@ fn parse_duration(s: &str) -> Result<Duration, String> {
     if seconds.is_finite() && seconds > 0.0 && seconds < 1e7 {
         Ok(Duration::from_secs_f64(seconds))
     } else {
-        Err(err())
+        Err(format!(
+            "`{s}` is out of range: a duration must be more than 0s and less than 10000000s"
+        ))
     }
 }
 
+/// The flags of the render settings take the ranges the scene's `render` block takes.
+macro_rules! setting_flags {
+    ($($f:ident: $t:ty = $range:ident,)*) => {$(
+        pub(crate) fn $f(s: &str) -> Result<$t, String> {
+            hyperslice::scene::ranges::$range.parse(s).map(|x| x as $t)
+        }
+    )*};
+}
+
+setting_flags! {
+    parse_frames: u32 = FRAMES,
+    parse_spp: u32 = SPP,
+    parse_bounces: u32 = BOUNCES,
+    parse_max_steps: u32 = MAX_STEPS,
+    parse_seed: u64 = SEED,
+    parse_threads: u32 = THREADS,
+    parse_epsilon: f64 = EPSILON,
+    parse_fps: f64 = FPS,
+    parse_exposure: f64 = EXPOSURE,
+}
+
 /// `A..B`, `A..=B` or `A..` (to the last frame).
+/// `--frame-range`: the frames, and the text as written, for messages.
+#[derive(Clone)]
+struct FrameRange {
+    start: u32,
+    /// Excluded; `None` to the last frame.
+    end: Option<u32>,
+    text: String,
+}
+
+fn parse_frame_range(s: &str) -> Result<FrameRange, String> {
+    let (start, end) = parse_range(s)?;
+    Ok(FrameRange {
+        start,
+        end,
+        text: s.trim().to_string(),
+    })
+}
+
 fn parse_range(s: &str) -> Result<(u32, Option<u32>), String> {
     let err = || format!("`{s}` is not a frame range; write A..B (B excluded) or A..=B");
     let (a, b, inclusive) = if let Some((a, b)) = s.split_once("..=") {
@@ -175,9 +228,14 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
 }
 
 fn parse_fraction(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
+    match s.trim().parse::<f64>() {
         Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
-        _ => Err(format!("`{s}` is not in (0, 1)")),
+        Ok(_) => Err(format!(
+            "`{s}` is out of range: it must be a number in (0, 1)"
+        )),
+        Err(_) => Err(format!(
+            "`{s}` is not a number: it must be a number in (0, 1)"
+        )),
     }
 }
 
@@ -192,27 +250,8 @@ enum QualityArg {
 pub(crate) fn parse_size(s: &str) -> Result<(u32, u32), String> {
     let err = || format!("`{s}` is not a size; write WIDTHxHEIGHT, e.g. 160x120");
     let (w, h) = s.split_once(['x', 'X']).ok_or_else(err)?;
-    let side = |v: &str| match v.trim().parse::<u32>() {
-        Ok(n) if (1..=16384).contains(&n) => Ok(n),
-        _ => Err(format!(
-            "`{v}` is not a valid side; each side is a whole number in 1..=16384"
-        )),
-    };
+    let side = |v: &str| hyperslice::scene::ranges::SIDE.parse(v).map(|x| x as u32);
     Ok((side(w)?, side(h)?))
-}
-
-fn parse_epsilon(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x > 0.0 && x <= 1.0 => Ok(x),
-        _ => Err(format!("`{s}` is not in (0, 1]")),
-    }
-}
-
-fn parse_positive(s: &str) -> Result<f64, String> {
-    match s.parse::<f64>() {
-        Ok(x) if x > 0.0 && x <= 1e6 && x.is_finite() => Ok(x),
-        _ => Err(format!("`{s}` is not a positive number")),
-    }
 }
 
 impl RenderArgs {
@@ -278,6 +317,90 @@ fn interrupted() -> &'static AtomicBool {
     &FLAG
 }
 
+/// Refuse a render whose frames in flight (or, when `finishing`, whose denoising of `frames`
+/// frames) need more memory than the machine has available, before anything is written: it
+/// would otherwise abort part-way with a failed allocation.
+fn refuse_what_memory_cannot_hold(
+    r: &RenderSettings,
+    units: &[driver::Unit],
+    finishing: bool,
+    frames: usize,
+) -> hyperslice::error::Result<()> {
+    use hyperslice::farm::memory;
+    let threads = match r.threads {
+        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
+        n => n as usize,
+    };
+    let in_flight = threads.min(driver::FRAME_GROUP).min(units.len()).max(1);
+    let finish = finishing.then_some((r.denoise, frames));
+    let needed = memory::needed(r.width, r.height, in_flight, finish);
+    let (available, known) = match memory::available() {
+        Some(a) => (a, true),
+        None => (memory::UNKNOWN_AVAILABLE, false),
+    };
+    if needed <= available {
+        return Ok(());
+    }
+    let per_pixel = needed as f64 / (r.width as f64 * r.height as f64) / 1000.0;
+    let more = if in_flight > 1 || frames > 1 {
+        ", or hold fewer frames at once with --threads 1 or --frame-range"
+    } else {
+        ""
+    };
+    Err(hyperslice::Error::Usage(format!(
+        "a {} x {} render needs about {} of memory ({per_pixel:.2} KB a pixel), but {} {}; make the image smaller with --size{more}",
+        r.width,
+        r.height,
+        memory::human(needed),
+        memory::human(available),
+        if known {
+            "is available"
+        } else {
+            "is the most assumed when the memory available is unknown"
+        },
+    )))
+}
+
+/// `--restart`: remove the films of `units` (the whole folder when it is the hidden one).
+fn discard_films(
+    films: &hyperslice::farm::films::FilmDir,
+    units: &[driver::Unit],
+    hidden: bool,
+) -> hyperslice::error::Result<()> {
+    let gone = |r: std::io::Result<()>| match r {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
+        _ => Ok(()),
+    };
+    let removed = if hidden {
+        gone(std::fs::remove_dir_all(films.dir()))
+    } else {
+        units
+            .iter()
+            .try_for_each(|u| gone(std::fs::remove_file(films.path_of(u))))
+    };
+    removed.map_err(|source| hyperslice::Error::RemoveFilms {
+        path: films.dir().to_path_buf(),
+        source,
+    })
+}
+
+/// Frames as `--frame-range` takes them, the last included: `0..=6`, or `7..` when none.
+fn frame_span(frames: &std::ops::Range<u32>) -> String {
+    if frames.is_empty() {
+        format!("{}..", frames.start)
+    } else {
+        format!("{}..={}", frames.start, frames.end - 1)
+    }
+}
+
+/// `495,370 samples/s`: the progress bar's rate of `n` samples in `secs` seconds.
+fn sample_rate(n: u64, secs: f64) -> String {
+    format!(
+        "{} samples/s",
+        HumanCount((n as f64 / secs.max(1e-9)) as u64)
+    )
+}
+
 /// The hidden film directory beside `out` for a render without `--films`.
 fn hidden_films(out: &Path) -> PathBuf {
     let name = out.file_name().unwrap_or_default().to_string_lossy();
@@ -299,10 +422,15 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     // Fail on an unwritable path before spending any time rendering.
     output::check_writable(&out, &args.file)?;
     let r = &scene.render;
-    let frames = match (args.frame, args.frame_range) {
+    let frames = match (args.frame, &args.frame_range) {
         (Some(f), _) => f..f.saturating_add(1),
-        (None, Some((a, b))) => a..b.unwrap_or(r.frames),
+        (None, Some(range)) => range.start..range.end.unwrap_or(r.frames),
         (None, None) => 0..r.frames,
+    };
+    // The frames as the user gave them.
+    let asked = match &args.frame_range {
+        Some(range) => range.text.clone(),
+        None => frame_span(&frames),
     };
     if let Some(f) = args.frame
         && f >= r.frames
@@ -315,11 +443,10 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     }
     if frames.end > r.frames || frames.is_empty() {
         return Err(Error::Usage(format!(
-            "frames {}..{} are not all in the animation: it has {} (0..{}); set `frames` in the scene or --frames to render more",
-            frames.start,
-            frames.end,
+            "frames {} are not all in the animation: it has {} ({}); set `frames` in the scene or --frames to render more",
+            asked,
             plural(r.frames as usize, "frame"),
-            r.frames
+            frame_span(&(0..r.frames))
         )));
     }
     let shard = args.shard.unwrap_or((0, 1));
@@ -347,24 +474,38 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         noise_threshold: args.noise_threshold,
         ..Options::default()
     };
+    let units = part.units(r.spp);
+    refuse_what_memory_cannot_hold(r, &units, shard.1 == 1, frames.len())?;
     let dir = args.films.clone().unwrap_or_else(|| hidden_films(&out));
     let name = args.file.file_name().unwrap_or_default().to_string_lossy();
-    let mut films = FilmDir::open(&dir, &scene, &name, &options, part)?;
-    let units = part.units(r.spp);
+    let films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+    if args.restart {
+        discard_films(&films, &units, args.films.is_none())?;
+    }
+    if shard.1 > 1 {
+        // Another shard's films of other settings would only be refused at `merge`.
+        films.check_shards(&units)?;
+    }
     let earlier = match films.survey(&units) {
-        // The hidden films of an earlier, interrupted render of another scene or other
-        // settings: nobody asked to keep them, and they cannot be used.
-        Err(Error::FilmMismatch { ours, theirs, .. }) if args.films.is_none() => {
-            eprintln!(
-                "note: {} held an interrupted render with `{theirs}` where this one has `{ours}`; starting afresh",
-                dir.display()
-            );
-            std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
-                path: dir.clone(),
-                source,
-            })?;
-            films = FilmDir::open(&dir, &scene, &name, &options, part)?;
+        // `--watch` re-renders a draft on every change: its own hidden films of the scene
+        // before the change are of no use.
+        Err(Error::FilmMismatch { .. }) if args.watch && args.films.is_none() => {
+            discard_films(&films, &units, true)?;
             films.survey(&units)?
+        }
+        // Films of other settings: the work of an earlier run, kept unless asked.
+        Err(Error::FilmMismatch { ours, theirs, path }) => {
+            return Err(Error::Usage(format!(
+                "{} holds the films of another scene or other settings: they have `{theirs}` where this render has `{ours}` (in {}); \
+                 run with the same settings to resume or reuse them, or pass --restart to discard them{}",
+                dir.display(),
+                path.file_name().unwrap_or_default().to_string_lossy(),
+                if args.films.is_some() {
+                    " (or render into another --films directory)"
+                } else {
+                    " (or move the folder aside to keep it)"
+                }
+            )));
         }
         other => other?,
     };
@@ -376,7 +517,7 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         if frames == (0..r.frames) {
             plural(r.frames as usize, "frame")
         } else {
-            format!("frames {}..{} of {}", frames.start, frames.end, r.frames)
+            format!("frames {asked} of {}", r.frames)
         },
         if shard.1 > 1 {
             format!(", shard {}/{}", shard.0, shard.1)
@@ -416,10 +557,8 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
     let bar = if progressive {
         let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
         bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} {elapsed_precise} {human_pos} samples, {per_sec:.0} {msg}",
-            )
-            .expect("a valid template"),
+            ProgressStyle::with_template("{spinner} {elapsed_precise} {human_pos} samples, {msg}")
+                .expect("a valid template"),
         );
         bar
     } else {
@@ -433,10 +572,7 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         bar
     };
     let started = Instant::now();
-    let rate = |n: u64| {
-        let secs = started.elapsed().as_secs_f64().max(1e-9);
-        format!("{}/s samples", HumanCount((n as f64 / secs) as u64))
-    };
+    let rate = |n: u64| sample_rate(n, started.elapsed().as_secs_f64());
     let per_frame = (r.width as u64 * r.height as u64 * part_samples(&units)).max(1);
     let before = earlier.complete;
     let progress = |n: u64| {
@@ -527,10 +663,15 @@ fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> 
         .collect();
     if args.films.is_none() {
         // The output is written; the hidden films have served.
-        std::fs::remove_dir_all(&dir).map_err(|source| Error::RemoveFilms {
-            path: dir.clone(),
-            source,
-        })?;
+        match std::fs::remove_dir_all(&dir) {
+            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+                return Err(Error::RemoveFilms {
+                    path: dir.clone(),
+                    source: e,
+                });
+            }
+            _ => {}
+        }
     }
     let times = Times {
         render_secs,
@@ -785,10 +926,10 @@ pub struct MergeArgs {
     #[arg(long)]
     denoise: Option<Denoise>,
     /// Brightness multiplier (default: the scene's).
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_exposure)]
     exposure: Option<f64>,
     /// Frames per second of a GIF (default: the scene's).
-    #[arg(long, value_parser = parse_positive)]
+    #[arg(long, allow_negative_numbers = true, value_parser = parse_fps)]
     fps: Option<f64>,
 }
 
@@ -839,4 +980,12 @@ pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
     );
     report_written(&written);
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn the_rate_reads_samples_per_second() {
+        assert_eq!(super::sample_rate(990_740, 2.0), "495,370 samples/s");
+    }
 }

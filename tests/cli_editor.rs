@@ -332,7 +332,7 @@ fn language_server_session() {
     use serde_json::json;
     let dir = tempfile::tempdir().expect("temp dir");
     let path = dir.path().canonicalize().expect("a path").join("scene.4ds");
-    let text = "let radius = 0.5\nobject ball { shape = hypersphere( radius ) }\nobject b2 { shape = hypersfere(1) }\n";
+    let text = "let radius = 0.5\nobject ball { shape = hypersphere( radius ) }\nobject b2 { shape = hypersfere(1) }\nsky = rgb(0.5)\n";
     std::fs::write(&path, text).expect("written");
     let uri = format!("file://{}", path.display());
     let doc = json!({"uri": uri});
@@ -451,7 +451,7 @@ fn language_server_session() {
     );
     assert_eq!(
         edits[0]["newText"],
-        "let radius = 0.5\nobject ball { shape = hypersphere(radius) }\nobject b2 { shape = hypersfere(1) }\n"
+        "let radius = 0.5\nobject ball { shape = hypersphere(radius) }\nobject b2 { shape = hypersfere(1) }\nsky = rgb(0.5)\n"
     );
 
     // Fixing the mistake clears the diagnostics.
@@ -575,13 +575,34 @@ fn tutorial_scenes_check_and_are_formatted() {
             Ok(text.as_str()),
             "{path} is not formatted"
         );
-        if step <= 2 {
+        if step != 3 {
             assert!(
                 tutorial.contains(&text),
                 "docs/tutorial.md does not show {path} as it is"
             );
         }
     }
+}
+
+/// Every snippet of the tutorial that is a whole scene (it has a `render` block) is lit: copied
+/// as shown, it does not render black.
+#[test]
+fn tutorial_scenes_are_lit() {
+    let text = std::fs::read_to_string("docs/tutorial.md").expect("the tutorial");
+    let mut checked = 0;
+    for block in text.split("```").skip(1).step_by(2) {
+        let Some(body) = block.strip_prefix('\n') else {
+            continue;
+        };
+        if !body.contains("render {") {
+            continue;
+        }
+        checked += 1;
+        let c = hyperslice::Compilation::from_source("snippet.4ds", body);
+        let codes: Vec<&str> = c.diagnostics.iter().map(|d| d.code).collect();
+        assert!(codes.is_empty(), "{codes:?} for the snippet\n{body}");
+    }
+    assert!(checked >= 2, "only {checked} whole scenes in the tutorial");
 }
 
 /// Every code block of the reference and the tutorial that is a whole scene is formatted.
@@ -664,4 +685,55 @@ fn language_server_reports_imported_files_at_the_import() {
     lsp.request(3, "shutdown", json!(null));
     lsp.notify("exit", json!(null));
     assert!(lsp.child.wait().expect("exited").success());
+}
+
+/// Control characters in a scene never reach the terminal raw: the excerpt of every diagnostic
+/// shows them as pictures (ESC as `␛`, NUL as `␀`), with the marker under the right column.
+#[test]
+fn diagnostics_show_control_characters_escaped() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let scenes: [(&str, &[u8]); 3] = [
+        (
+            "esc.4ds",
+            b"let a = 1 \x1b[31m\nrender { denoise = \"\x1b[31mred\" }\nobject ball { shape = hypersphere(1) }\n",
+        ),
+        (
+            "nul.4ds",
+            b"let \x00b = 1\x7f\nobject ball { shape = hypersphere(1) \xc2\x9b }\n",
+        ),
+        ("binary.4ds", b"\x7fELF\x02\x01\x00\x00\xff\xfe\x1b[2J\x00\x7f\n"),
+    ];
+    for (name, bytes) in scenes {
+        std::fs::write(dir.path().join(name), bytes).expect("written");
+        for command in ["check", "render"] {
+            let o = hyperslice(dir.path(), &[command, "--color", "never", name]);
+            assert!(!o.status.success(), "{name}: {}", stderr(&o));
+            let all = [o.stdout.as_slice(), o.stderr.as_slice()].concat();
+            let text = String::from_utf8_lossy(&all);
+            assert!(text.contains("Error"), "{name}: {text}");
+            let raw: Vec<char> = (text.chars())
+                .filter(|c| c.is_control() && *c != '\n')
+                .collect();
+            assert!(raw.is_empty(), "{name} {command}: {raw:?} in\n{text}");
+        }
+    }
+    // The marker stays under the character it points at.
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "nul.4ds"]);
+    let err = stderr(&o);
+    let lines: Vec<&str> = err.lines().collect();
+    let at = (lines.iter())
+        .position(|l| l.ends_with("let \u{2400}b = 1\u{2421}"))
+        .unwrap_or_else(|| panic!("no excerpt with pictures in\n{err}"));
+    let column = |l: &str| l.chars().position(|c| c == '|' || c == '^');
+    let excerpt = lines[at];
+    let marker = lines[at + 1];
+    let nul = excerpt.chars().position(|c| c == '\u{2400}');
+    let bar = excerpt
+        .find(" | ")
+        .map(|i| excerpt[..i].chars().count() + 3);
+    assert_eq!(
+        column(&marker[bar.unwrap_or(0)..]).map(|c| c + bar.unwrap_or(0)),
+        nul,
+        "{err}"
+    );
 }

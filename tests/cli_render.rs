@@ -264,3 +264,276 @@ fn compile_picks_the_frame() {
         "{err}"
     );
 }
+
+/// A scene in which nothing gives off light renders black: `check` and `render` both say so,
+/// and say how to light it.
+#[test]
+fn an_unlit_scene_is_warned_about() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    std::fs::write(
+        dir.path().join("dark.4ds"),
+        "object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8)) }\n",
+    )
+    .expect("written");
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "dark.4ds"]);
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("[W0005]"), "{err}");
+    assert!(
+        err.contains("add a light, an emission, or a sky colour"),
+        "{err}"
+    );
+    assert!(err.contains("1 warning"), "{err}");
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render", "--color", "never", "dark.4ds", "-o", "dark.png", "--size", "4x4", "--spp",
+            "1",
+        ],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("[W0005]"), "{err}");
+    // Lit by the sky, by a lamp, by an emission, or by a material map that may emit: no word.
+    for lit in [
+        "sky = rgb(0.1)\nobject ball { shape = hypersphere(1) }",
+        "object lamp { shape = hypersphere(1) material = light() }",
+        "object ball { shape = hypersphere(1) material = diffuse(emission: rgb(0.5)) }",
+        "object ball { shape = hypersphere(1) material = |p, n| if p.x > 0 { light() } else { diffuse() } }",
+        "object ball { shape = hypersphere(1) material = |p, n| diffuse(emission: rgb(p.x)) }",
+    ] {
+        std::fs::write(dir.path().join("lit.4ds"), lit).expect("written");
+        let o = hyperslice(dir.path(), &["check", "--color", "never", "lit.4ds"]);
+        let err = stderr(&o);
+        assert!(o.status.success() && !err.contains("W0005"), "{lit}: {err}");
+    }
+    // A map that only chooses between materials that cannot emit is certain to be dark.
+    std::fs::write(
+        dir.path().join("map.4ds"),
+        "object ball { shape = hypersphere(1) material = |p, n| if p.x > 0 { mirror() } else { diffuse(albedo: rgb(p.y)) } }",
+    )
+    .expect("written");
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "map.4ds"]);
+    assert!(stderr(&o).contains("[W0005]"), "{}", stderr(&o));
+}
+
+/// A flag takes the values its scene setting takes, and a refusal gives the value and the
+/// range; a negative number gets the range, not clap's `-- -1` tip; a duration needs its unit.
+#[test]
+fn flags_take_the_ranges_of_the_scene_settings() {
+    let dir = scene_dir();
+    for (flag, value, says) in [
+        (
+            "--spp",
+            "-1",
+            "`-1` is out of range: spp must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--spp=-1",
+            "",
+            "`-1` is out of range: spp must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--spp",
+            "1.5",
+            "`1.5` is not a whole number: spp must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--fps",
+            "1000",
+            "`1000` is out of range: fps must be a number in (0, 100]",
+        ),
+        (
+            "--fps",
+            "-2",
+            "`-2` is out of range: fps must be a number in (0, 100]",
+        ),
+        (
+            "--frames",
+            "0",
+            "frames must be a whole number from 1 to 10000",
+        ),
+        (
+            "--bounces",
+            "-1",
+            "bounces must be a whole number from 0 to 1000",
+        ),
+        (
+            "--max-steps",
+            "0",
+            "max_steps must be a whole number from 1 to 1000000",
+        ),
+        (
+            "--threads",
+            "2000",
+            "threads must be a whole number from 0 to 1024",
+        ),
+        (
+            "--exposure",
+            "0",
+            "exposure must be a number in (0, 1000000]",
+        ),
+        ("--epsilon", "2", "epsilon must be a number in (0, 1]"),
+        (
+            "--seed",
+            "-1",
+            "seed must be a whole number from 0 to 9007199254740992",
+        ),
+        (
+            "--size",
+            "-4x3",
+            "each side of the image must be a whole number from 1 to 16384",
+        ),
+        ("--time-budget", "5", "`5` has no unit; write 5s"),
+        (
+            "--time-budget",
+            "0s",
+            "`0s` is out of range: a duration must be more than 0s",
+        ),
+        ("--time-budget", "-1s", "`-1s` is out of range"),
+    ] {
+        let args: Vec<&str> = ["render", "scene.4ds", flag, value]
+            .into_iter()
+            .filter(|a| !a.is_empty())
+            .collect();
+        let o = hyperslice(dir.path(), &args);
+        let err = stderr(&o);
+        assert!(!o.status.success(), "{flag} {value}: {err}");
+        assert!(err.contains(says), "{flag} {value}: {err}");
+        assert!(
+            !err.contains("as a value"),
+            "{flag} {value}: clap's tip in {err}"
+        );
+    }
+    // The scene's own settings say the same.
+    std::fs::write(
+        dir.path().join("fast.4ds"),
+        "render { fps = 1000 }\nsky = rgb(1)\nobject b { shape = hypersphere(1) }",
+    )
+    .unwrap();
+    let o = hyperslice(dir.path(), &["check", "--color", "never", "fast.4ds"]);
+    assert!(
+        stderr(&o).contains("this is 1000, but fps must lie in (0, 100]"),
+        "{}",
+        stderr(&o)
+    );
+}
+
+/// A size the machine cannot hold is refused at once, with the memory it needs and what to do,
+/// and leaves no films folder behind (the folder appears with the first film).
+#[test]
+fn refuses_a_render_too_large_for_memory() {
+    let dir = scene_dir();
+    let started = std::time::Instant::now();
+    // 16384 x 16384 with 100 frames denoised across: over 500 GiB.
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "huge.gif",
+            "--size",
+            "16384x16384",
+            "--frames",
+            "100",
+        ],
+    );
+    let err = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        started.elapsed().as_secs() < 20,
+        "took {:?}",
+        started.elapsed()
+    );
+    assert!(err.contains("render needs about"), "{err}");
+    assert!(err.contains("GiB of memory"), "{err}");
+    assert!(err.contains("--size"), "{err}");
+    assert_eq!(files(dir.path()), ["scene.4ds"]);
+    // A render that fits makes its films folder only to write films, and removes it after.
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "small.png",
+            "--size",
+            "8x6",
+            "--spp",
+            "1",
+            "--frames",
+            "1",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(files(dir.path()), ["scene.4ds", "small.png"]);
+}
+
+/// Small things a new user meets: `check` sums up a file with errors, a frame range is echoed
+/// as written, the printed scene spells settings as the language does, `.5` gets a hint, and
+/// the maths functions take what the reference says.
+#[test]
+fn rough_edges() {
+    let dir = scene_dir();
+    let d = dir.path();
+    std::fs::write(
+        d.join("bad.4ds"),
+        "let unused = 1\nobject b { shape = hypersfere(1) }\nobject c { shape = hypersfere(2) }\n",
+    )
+    .unwrap();
+    let o = hyperslice(d, &["check", "--color", "never", "bad.4ds"]);
+    let err = stderr(&o);
+    assert!(!o.status.success());
+    assert!(err.contains("bad.4ds: error: 2 errors, 1 warning"), "{err}");
+    std::fs::write(d.join("dot.4ds"), "let half = .5\n").unwrap();
+    let o = hyperslice(d, &["check", "--color", "never", "dot.4ds"]);
+    let err = stderr(&o);
+    assert!(err.contains("write `0.5`"), "{err}");
+    assert!(err.contains("dot.4ds: error: 1 error\n"), "{err}");
+
+    let o = hyperslice(
+        d,
+        &[
+            "render",
+            "scene.4ds",
+            "-o",
+            "r.png",
+            "--size",
+            "8x6",
+            "--spp",
+            "1",
+            "--frame-range",
+            "0..=1",
+        ],
+    );
+    let err = stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("frames 0..=1 of 3"), "{err}");
+    let o = hyperslice(d, &["render", "scene.4ds", "--frame-range", "2..=5"]);
+    let err = stderr(&o);
+    assert!(
+        err.contains("frames 2..=5 are not all in the animation"),
+        "{err}"
+    );
+
+    let o = hyperslice(d, &["compile", "scene.4ds", "--emit", "scene"]);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("denoise \"atrous\"  quality \"custom\""),
+        "{out}"
+    );
+
+    let docs = std::fs::read_to_string("docs/language.md").unwrap();
+    assert!(
+        docs.contains(
+            "| `sqrt(x)`, `exp(x)`, `log(x)` | `num` (or `vec4`, componentwise) | same type |"
+        ),
+        "the reference's row of sqrt, exp and log"
+    );
+    let c = hyperslice::Compilation::from_source(
+        "maths.4ds",
+        "sky = rgb(1)\nobject b { shape = hypersphere(1) |> translate(sqrt([1, 4, 9, 16]) + exp([0, 0, 0, 0]) + log([1, 1, 1, 1])) }",
+    );
+    assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
+}

@@ -208,6 +208,20 @@ fn merge_refuses_missing_unfinished_and_foreign_shards() {
         "{err}"
     );
     assert!(!d.join("m.gif").exists());
+    // A shard of other settings is refused when it starts, not only at merge.
+    let o = render(d, &["--shard", "1/3", "--films", "films", "--spp", "3"]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(err.contains("spp 4") && err.contains("spp 3"), "{err}");
+    assert!(!d.join("films/frame_0001.exr").exists(), "{err}");
+    // So is one split another number of ways.
+    let o = render(d, &["--shard", "1/4", "--films", "films"]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains("in 4 shards") && err.contains("in 3 shards"),
+        "{err}"
+    );
     // A shard of another render (other samples) is refused, saying what differs.
     ok(render(
         d,
@@ -251,12 +265,12 @@ fn a_film_directory_of_another_render_is_refused() {
     assert!(!o.status.success());
     let err = stderr(&o);
     assert!(
-        err.contains("was rendered from another scene or other settings"),
+        err.contains("films holds the films of another scene or other settings"),
         "{err}"
     );
     assert!(err.contains("seed 7") && err.contains("seed 0"), "{err}");
     assert!(
-        err.contains("hint: render into another --films directory"),
+        err.contains("pass --restart to discard them (or render into another --films directory)"),
         "{err}"
     );
     assert!(!d.join("c.gif").exists());
@@ -270,10 +284,20 @@ fn a_film_directory_of_another_render_is_refused() {
         err.contains("progressive false") && err.contains("progressive true"),
         "{err}"
     );
-    // The hidden films of another render (the user never named them) give way.
+    // The hidden films of an interrupted render are its work: another setting is refused,
+    // naming it, and they are discarded only with --restart.
     ok(render(d, &["-o", "h.gif", "--films", ".h.gif.films"]));
-    let err = ok(render(d, &["-o", "h.gif", "--seed", "7"]));
-    assert!(err.contains("starting afresh"), "{err}");
+    let o = render(d, &["-o", "h.gif", "--seed", "7"]);
+    let err = stderr(&o);
+    assert!(!o.status.success(), "{err}");
+    assert!(
+        err.contains(".h.gif.films holds the films of another scene or other settings"),
+        "{err}"
+    );
+    assert!(err.contains("seed 7") && err.contains("--restart"), "{err}");
+    assert_eq!(tree(&d.join(".h.gif.films")).len(), 5);
+    let err = ok(render(d, &["-o", "h.gif", "--seed", "7", "--restart"]));
+    assert!(!err.contains("resuming"), "{err}");
     assert!(!d.join(".h.gif.films").exists());
     let o = render(d, &["-o", "x.gif", "--frame-range", "0..=4294967295"]);
     assert!(
@@ -296,6 +320,20 @@ fn a_film_directory_of_another_render_is_refused() {
         .concat(),
     );
     assert!(stderr(&o).contains("another scene"), "{}", stderr(&o));
+    // In a named --films folder too, --restart discards this render's films.
+    let err = ok(render(
+        d,
+        &[
+            "-o",
+            "c.gif",
+            "--films",
+            "films",
+            "--seed",
+            "7",
+            "--restart",
+        ],
+    ));
+    assert!(!err.contains("resuming"), "{err}");
 }
 
 /// Cancelling from the progress callback at several points, then resuming from what was

@@ -6,6 +6,7 @@ use super::suggest::did_you_mean;
 use super::value::*;
 use crate::diagnostic::Diagnostic;
 use crate::scene::print::round9;
+use crate::scene::ranges::{self, SettingRange};
 use crate::scene::{Camera, Denoise, Object, Quality, RenderSettings, Scene};
 use crate::source::{FileId, Span};
 use crate::syntax::ast::*;
@@ -52,57 +53,23 @@ fn settings(
     out
 }
 
-/// A whole number in `lo..=hi`, known at compile time.
-fn whole(ck: &mut Checker, v: &(Value, Span), what: &str, lo: f64, hi: f64) -> Option<u64> {
+/// A number of `range` (section 13), known at compile time.
+fn ranged(ck: &mut Checker, v: &(Value, Span), range: &SettingRange) -> Option<f64> {
     let (v, span) = v;
+    let what = range.name;
     if !ck.require_const(v, *span, what) || !ck.expect(v, &Type::Num, *span, what) {
         return None;
     }
     let Value::Num(x) = v else { return None };
-    if x.fract() != 0.0 || *x < lo || *x > hi {
+    if !range.contains(*x) {
+        let must = if range.whole {
+            format!("must be {}", range.describe())
+        } else {
+            format!("must lie in ({}, {}]", Num(range.lo), Num(range.hi))
+        };
         ck.error(
-            Diagnostic::error("E0301", format!("{what} is out of range")).label(
-                *span,
-                format!(
-                    "this is {}, but {what} must be a whole number from {} to {}",
-                    Num(*x),
-                    Num(lo),
-                    Num(hi)
-                ),
-            ),
-        );
-        return None;
-    }
-    Some(*x as u64)
-}
-
-/// A number in `(lo, hi]` (or `[lo, hi]` when `closed`), known at compile time.
-fn number(
-    ck: &mut Checker,
-    v: &(Value, Span),
-    what: &str,
-    lo: f64,
-    hi: f64,
-    closed: bool,
-) -> Option<f64> {
-    let (v, span) = v;
-    if !ck.require_const(v, *span, what) || !ck.expect(v, &Type::Num, *span, what) {
-        return None;
-    }
-    let Value::Num(x) = v else { return None };
-    let above = if closed { *x >= lo } else { *x > lo };
-    if !above || *x > hi {
-        let open = if closed { "[" } else { "(" };
-        ck.error(
-            Diagnostic::error("E0301", format!("{what} is out of range")).label(
-                *span,
-                format!(
-                    "this is {}, but {what} must lie in {open}{}, {}]",
-                    Num(*x),
-                    Num(lo),
-                    Num(hi)
-                ),
-            ),
+            Diagnostic::error("E0301", format!("{what} is out of range"))
+                .label(*span, format!("this is {}, but {what} {must}", Num(*x))),
         );
         return None;
     }
@@ -214,53 +181,48 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                     && ck.expect(v, &Type::Size, *span, "the image size")
                     && let Value::Size(w, h) = v
                 {
-                    let ok = |x: f64| x.fract() == 0.0 && (1.0..=16384.0).contains(&x);
-                    if ok(*w) && ok(*h) {
+                    if ranges::SIDE.contains(*w) && ranges::SIDE.contains(*h) {
                         (render.width, render.height) = (*w as u32, *h as u32);
                     } else {
                         ck.error(Diagnostic::error("E0301", "image size out of range").label(
                             *span,
-                            format!("this is {} x {}, but each side must be a whole number from 1 to 16384", Num(*w), Num(*h)),
+                            format!(
+                                "this is {} x {}, but each side must be {}",
+                                Num(*w),
+                                Num(*h),
+                                ranges::SIDE.describe()
+                            ),
                         ));
                     }
                 }
-                let u = |ck: &mut Checker, k: &str, lo: f64, hi: f64| {
-                    s.get(k).and_then(|v| whole(ck, v, k, lo, hi))
+                let u = |ck: &mut Checker, range: &SettingRange| {
+                    s.get(range.name).and_then(|v| ranged(ck, v, range))
                 };
-                if let Some(x) = u(ck, "frames", 1.0, 10000.0) {
+                if let Some(x) = u(ck, &ranges::FRAMES) {
                     render.frames = x as u32;
                 }
-                if let Some(x) = u(ck, "spp", 1.0, 1e6) {
+                if let Some(x) = u(ck, &ranges::SPP) {
                     render.spp = x as u32;
                 }
-                if let Some(x) = u(ck, "bounces", 0.0, 1000.0) {
+                if let Some(x) = u(ck, &ranges::BOUNCES) {
                     render.bounces = x as u32;
                 }
-                if let Some(x) = u(ck, "max_steps", 1.0, 1e6) {
+                if let Some(x) = u(ck, &ranges::MAX_STEPS) {
                     render.max_steps = x as u32;
                 }
-                if let Some(x) = u(ck, "seed", 0.0, 9007199254740992.0) {
-                    render.seed = x;
+                if let Some(x) = u(ck, &ranges::SEED) {
+                    render.seed = x as u64;
                 }
-                if let Some(x) = u(ck, "threads", 0.0, 1024.0) {
+                if let Some(x) = u(ck, &ranges::THREADS) {
                     render.threads = x as u32;
                 }
-                if let Some(x) = s
-                    .get("epsilon")
-                    .and_then(|v| number(ck, v, "epsilon", 0.0, 1.0, false))
-                {
+                if let Some(x) = u(ck, &ranges::EPSILON) {
                     render.epsilon = x;
                 }
-                if let Some(x) = s
-                    .get("fps")
-                    .and_then(|v| number(ck, v, "fps", 0.0, 100.0, false))
-                {
+                if let Some(x) = u(ck, &ranges::FPS) {
                     render.fps = x;
                 }
-                if let Some(x) = s
-                    .get("exposure")
-                    .and_then(|v| number(ck, v, "exposure", 0.0, 1e6, false))
-                {
+                if let Some(x) = u(ck, &ranges::EXPOSURE) {
                     render.exposure = x;
                 }
                 if let Some(d) = s.get("denoise") {
@@ -384,6 +346,28 @@ pub fn build(ck: &mut Checker, root: FileId) -> Scene {
                 .help("add one, as in `object ball { shape = hypersphere(1) }`"),
         );
     }
+    if !objects.is_empty()
+        && sky.iter().all(|x| *x == 0.0)
+        && !ck.diags.iter().any(|d| d.is_error())
+        && !objects.iter().any(|o| may_emit(&ck.fields, &o.material))
+    {
+        // Certain that nothing gives off light: every picture would be black.
+        ck.diags.push(
+            Diagnostic::warning("W0005", "nothing in the scene gives off light")
+                .label(
+                    Span::new(root, 0, 0),
+                    "every frame of this scene renders black",
+                )
+                .note(
+                    "the sky is black (the default), no object is a `light(...)` and no \
+                     `diffuse` has an `emission`",
+                )
+                .help(
+                    "add a light, an emission, or a sky colour, as in \
+                     `sky = rgb(0.6, 0.7, 0.9)` or `material = light(intensity: 5)`",
+                ),
+        );
+    }
     let fields = std::mem::take(&mut ck.fields);
     Scene {
         render,
@@ -490,4 +474,38 @@ fn object(
         shape,
         material,
     })
+}
+
+/// Whether a material may give off light: `false` only when that is certain (a field that is
+/// not a choice between constant materials may emit).
+fn may_emit(fields: &Fields, material: &crate::scene::Param<Rc<Material>>) -> bool {
+    match material {
+        crate::scene::Param::Const(m) => material_may_emit(fields, m),
+        crate::scene::Param::Field(id) => field_may_emit(fields, *id),
+    }
+}
+
+fn field_may_emit(fields: &Fields, id: FieldId) -> bool {
+    match &fields.get(id).op {
+        FieldOp::Const(Const::Material(m)) => material_may_emit(fields, m),
+        FieldOp::Select(_, a, b) => field_may_emit(fields, *a) || field_may_emit(fields, *b),
+        FieldOp::Index(xs, _) => xs.iter().any(|x| field_may_emit(fields, *x)),
+        _ => true,
+    }
+}
+
+fn material_may_emit(fields: &Fields, m: &Material) -> bool {
+    let black = |c: &crate::scene::Param<[f64; 3]>| match c {
+        crate::scene::Param::Const(c) => c.iter().all(|x| *x == 0.0),
+        crate::scene::Param::Field(id) => {
+            matches!(&fields.get(*id).op, FieldOp::Const(Const::Color(c)) if c.iter().all(|x| *x == 0.0))
+        }
+    };
+    match m {
+        Material::Diffuse { emission, .. } => !black(emission),
+        Material::Light { color, intensity } => {
+            !(black(color) || matches!(intensity, crate::scene::Param::Const(x) if *x == 0.0))
+        }
+        _ => false,
+    }
 }

@@ -46,7 +46,9 @@ pub struct FilmDir {
 }
 
 impl FilmDir {
-    /// Open (and create) `dir` for rendering `part` of `scene`, named `scene_name` in messages.
+    /// Open `dir` for rendering `part` of `scene`, named `scene_name` in messages. The directory
+    /// is created when the first film is saved, so a render refused or stopped before that
+    /// leaves none behind.
     pub fn open(
         dir: &Path,
         scene: &Scene,
@@ -54,10 +56,6 @@ impl FilmDir {
         options: &Options,
         part: Part,
     ) -> Result<FilmDir> {
-        std::fs::create_dir_all(dir).map_err(|source| Error::CreateDirectory {
-            path: dir.to_path_buf(),
-            source,
-        })?;
         let r = &scene.render;
         let fingerprint = Fingerprint::of(scene, options);
         let template = FilmMeta {
@@ -113,6 +111,45 @@ impl FilmDir {
             }
         }
         Ok(s)
+    }
+
+    /// Refuse the films in the directory of other shards than this one's `units` when they
+    /// come from another scene or other settings, or split other frames or another number of
+    /// ways: `merge` could not put them together with this shard's.
+    pub fn check_shards(&self, units: &[Unit]) -> Result<()> {
+        let entries = match std::fs::read_dir(&self.dir) {
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(()),
+            other => other.map_err(|source| Error::ReadFilms {
+                path: self.dir.clone(),
+                source,
+            })?,
+        };
+        let ours: Vec<String> = units.iter().map(|u| file_name(u, self.spp)).collect();
+        let mut names: Vec<(String, PathBuf)> = entries
+            .filter_map(|e| e.ok())
+            .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path()))
+            .filter(|(n, _)| n.starts_with("frame_") && n.ends_with(".exr") && !ours.contains(n))
+            .collect();
+        names.sort();
+        for (_, path) in names {
+            let meta = read_meta(&path)?;
+            self.check(&path, &meta)?;
+            let (mine, theirs) = (self.template.part, meta.part);
+            if mine.frames != theirs.frames || mine.shard[1] != theirs.shard[1] {
+                let show = |p: Part| {
+                    format!(
+                        "frames {}..{} in {} shards",
+                        p.frames[0], p.frames[1], p.shard[1]
+                    )
+                };
+                return Err(Error::FilmMismatch {
+                    path,
+                    ours: show(mine),
+                    theirs: show(theirs),
+                });
+            }
+        }
+        Ok(())
     }
 
     /// Refuse a film made from another scene or other settings, saying what differs.
@@ -222,6 +259,10 @@ impl Store for FilmDir {
         let header = serde_json::to_string(&meta).expect("film meta serialises");
         let (w, h) = (meta.width as usize, meta.height as usize);
         let bytes = crate::film::file::encode(&header, w, h, &p.sums)?;
+        std::fs::create_dir_all(&self.dir).map_err(|source| Error::CreateDirectory {
+            path: self.dir.clone(),
+            source,
+        })?;
         Ok(crate::output::write_atomic(&self.path_of(&p.unit), &bytes)?)
     }
 }

@@ -10,6 +10,7 @@
 
 pub mod assemble;
 pub mod films;
+pub mod memory;
 pub mod plan;
 
 use crate::render::driver::Options;

@@ -30,7 +30,7 @@ const TILE: u32 = 16;
 /// Samples a pixel takes before adaptive sampling judges its noise.
 pub const ADAPTIVE_MIN: u32 = 16;
 /// Most frames in flight at once (there are as many as worker threads, up to this).
-const FRAME_GROUP: usize = 16;
+pub const FRAME_GROUP: usize = 16;
 
 /// Choices of a render that are not part of the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -7,6 +7,7 @@ pub mod field;
 pub mod lattice;
 pub mod material;
 pub mod print;
+pub mod ranges;
 pub mod shape;
 pub mod types;
 
@@ -93,6 +94,16 @@ impl Default for RenderSettings {
 }
 
 impl Quality {
+    /// The name in scenes (`render { quality = "draft" }`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Quality::Draft => "draft",
+            Quality::Preview => "preview",
+            Quality::Final => "final",
+            Quality::Custom => "custom",
+        }
+    }
+
     /// The preset's samples, bounces, marching epsilon and step limit.
     pub fn apply(self, r: &mut RenderSettings) {
         let (spp, bounces, eps, steps) = match self {

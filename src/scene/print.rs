@@ -213,9 +213,9 @@ impl fmt::Display for Scene {
         )?;
         writeln!(
             f,
-            "  denoise {:?}  quality {:?}  fps {}  exposure {}",
-            r.denoise,
-            r.quality,
+            "  denoise \"{}\"  quality \"{}\"  fps {}  exposure {}",
+            r.denoise.name(),
+            r.quality.name(),
             Num(r.fps),
             Num(r.exposure)
         )?;

@@ -392,7 +392,8 @@ fn parse_error(file: FileId, src: &str, e: Rich<Token>) -> Diagnostic {
             d = d.label(cspan, format!("while parsing {label}"));
         }
     }
-    d.maybe_help(parse_hint(e.found(), text, &expected))
+    let after = src.get(e.span().end..).unwrap_or("");
+    d.maybe_help(parse_hint(e.found(), text, after, &expected))
 }
 
 /// "a", "a or b", "one of a, b or c".
@@ -405,9 +406,21 @@ fn one_of_list(items: &[String]) -> String {
     }
 }
 
-fn parse_hint(found: Option<&Token>, text: &str, expected: &[String]) -> Option<String> {
+fn parse_hint(
+    found: Option<&Token>,
+    text: &str,
+    after: &str,
+    expected: &[String],
+) -> Option<String> {
     let wants = |s: &str| expected.iter().any(|e| e.contains(s));
     match found {
+        // `.5`: a number starts with a digit.
+        Some(Token::Dot)
+            if wants("an expression") && after.starts_with(|c: char| c.is_ascii_digit()) =>
+        {
+            let digits: String = after.chars().take_while(|c| c.is_ascii_digit()).collect();
+            Some(format!("a number starts with a digit: write `0.{digits}`"))
+        }
         Some(Token::Eq) if wants("`:`") || wants("`)`") => Some(
             "named arguments are written `name: value`, as in `hypersphere(radius: 1)`".to_string(),
         ),
