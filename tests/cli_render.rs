@@ -537,3 +537,40 @@ fn rough_edges() {
     );
     assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
 }
+
+#[test]
+fn draft_quality_does_not_cut_the_lattices_channels() {
+    // Draft trades noise for time (fewer samples and bounces, a coarser epsilon); the step
+    // limit it once lowered to 200 instead ended the rays along the D4 lattice's channels,
+    // black crosses over the README's example (236 segments here, 34 at the default 1000).
+    let dir = scene_dir();
+    let scene = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/d4_packing.4ds");
+    let scene = scene.to_str().expect("a UTF-8 path");
+    let o = hyperslice(
+        dir.path(),
+        &[
+            "render",
+            scene,
+            "-o",
+            "d4.gif",
+            "--size",
+            "64x48",
+            "--frames",
+            "3",
+            "--quality",
+            "draft",
+        ],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let err = stderr(&o);
+    let lost: u64 = err
+        .lines()
+        .find_map(|l| {
+            l.strip_prefix("warning: ")?
+                .split_once(" ray segments ran out")
+        })
+        .map(|(n, _)| n)
+        .map_or(0, |n| n.replace(',', "").parse().expect("a count"));
+    // 36,864 samples: fewer than 1 in 500 of them end out of steps.
+    assert!(lost * 500 < 36_864, "{lost} segments out of steps:\n{err}");
+}

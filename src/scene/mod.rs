@@ -107,7 +107,7 @@ impl Quality {
     /// The preset's samples, bounces, marching epsilon and step limit.
     pub fn apply(self, r: &mut RenderSettings) {
         let (spp, bounces, eps, steps) = match self {
-            Quality::Draft => (4, 4, 1e-3, 200),
+            Quality::Draft => (4, 4, 1e-3, 1000),
             Quality::Preview => (16, 6, 1e-4, 1000),
             Quality::Final => (256, 12, 1e-5, 5000),
             Quality::Custom => return,
