@@ -230,3 +230,79 @@ fn define_diagnostics() {
     }
     insta::assert_snapshot!(out);
 }
+
+/// W0002 compares the shape's reach towards each neighbour with the cell's facet that way: a
+/// box that fits its grid cell along the axes is not warned about even though its corners reach
+/// further than half the spacing, and turning a sphere about its centre changes nothing.
+#[test]
+fn tile_fit_uses_the_extent_towards_each_neighbour() {
+    let cases = [
+        ("hyperbox(0.5) |> tile(grid(spacing: 1.5))", false),
+        ("hyperbox(0.75) |> tile(grid(spacing: 1.5))", false),
+        ("hyperbox(0.9) |> tile(grid(spacing: 1.5))", true),
+        (
+            "hyperbox([0.9, 0.5, 0.5, 0.5]) |> tile(grid(spacing: [2, 1, 1, 1]))",
+            false,
+        ),
+        // Along x the grid has one cell, so nothing neighbours it there.
+        (
+            "hyperbox([5, 0.5, 0.5, 0.5]) |> tile(grid(1, limit: [0, 3, 3, 3]))",
+            false,
+        ),
+        ("hyperbox(0.5) |> tile(d4(scale: 1))", false),
+        ("hyperbox(0.55) |> tile(d4(scale: 1))", true),
+        ("hypersphere(0.7) |> tile(d4(scale: 1))", false),
+        ("hypersphere(0.75) |> tile(d4(scale: 1))", true),
+        (
+            "hypersphere(0.7) |> rotate(xy, 30deg) |> tile(d4(scale: 1))",
+            false,
+        ),
+        (
+            "hypersphere(0.75) |> rotate(xy, 30deg) |> rotate(zw, 10deg) |> tile(d4(scale: 1))",
+            true,
+        ),
+        (
+            "hypersphere(0.7) |> rotate(xy, 30deg) |> tile(grid(1.5))",
+            false,
+        ),
+        (
+            "hypersphere(0.7) |> rotate(xw, 90deg * t) |> tile(grid(1.5))",
+            false,
+        ),
+        (
+            "hypersphere(0.8) |> rotate(xw, 90deg * t) |> tile(grid(1.5))",
+            true,
+        ),
+        // Turned 45 degrees in xy, the box's corner points along x.
+        (
+            "hyperbox(0.6) |> rotate(xy, 45deg) |> tile(grid(1.5))",
+            true,
+        ),
+        (
+            "hyperbox(0.5) |> rotate(xy, 45deg) |> tile(grid(1.5))",
+            false,
+        ),
+        (
+            "hypersphere(0.5) |> translate([0.2, 0, 0, 0]) |> tile(grid(1.5))",
+            false,
+        ),
+        (
+            "hypersphere(0.5) |> translate([0.3, 0, 0, 0]) |> tile(grid(1.5))",
+            true,
+        ),
+        ("cell16(0.7) |> tile(grid(1.5))", false),
+        ("cell16(0.7) |> round(0.1) |> tile(grid(1.5))", true),
+        ("cell24(1) |> tile(grid(1.5))", false),
+    ];
+    let mut wrong = Vec::new();
+    for (shape, warns) in cases {
+        let text = format!("object o {{ shape = {shape} }}\n");
+        let c = Compilation::from_source("fit.4ds", &text);
+        assert!(!c.has_errors(), "{shape}:\n{}", c.render_diagnostics(false));
+        let got = c.diagnostics.iter().any(|d| d.code == "W0002");
+        if got != warns {
+            wrong.push(format!("{shape}: W0002 {got}, expected {warns}"));
+        }
+    }
+    assert!(wrong.is_empty(), "{}", wrong.join("\n"));
+}

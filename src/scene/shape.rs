@@ -4,6 +4,7 @@
 use super::field::{DEP_P, Fields, Param};
 use super::lattice::Lattice;
 use crate::math::Plane;
+use crate::math::plane::rotate;
 use std::rc::Rc;
 
 pub type Num = Param<f64>;
@@ -203,6 +204,127 @@ impl Shape {
                 let (c, r) = shape.bounds()?;
                 let k = factor.constant()?;
                 (c.map(|x| x * k), r * k)
+            }
+        })
+    }
+}
+
+impl Shape {
+    /// An upper bound on `v . x` over the points `x` where the shape's distance is at most
+    /// `grow` (the shape itself at 0): its support function, exact for the primitives and under
+    /// translations, rotations, scalings, unions and roundings of them, an upper bound through
+    /// intersections, cuts, smoothing and symmetries. `None` when a parameter it needs is not a
+    /// constant or the shape is unbounded.
+    pub fn support(&self, v: [f64; 4], grow: f64) -> Option<f64> {
+        use ShapeKind as S;
+        let len = length(v);
+        let a = v.map(f64::abs);
+        Some(match &self.kind {
+            S::Hypersphere { radius } => (radius.constant()? + grow) * len,
+            S::Hyperbox { half, radius } => {
+                // A box of half - r grown by r, as lowered.
+                let (h, r) = (half.constant()?, radius.constant()?);
+                (0..4).map(|i| a[i] * (h[i] - r).max(0.0)).sum::<f64>() + (r + grow) * len
+            }
+            S::Spherinder { radius, height } => {
+                let (r, h) = (radius.constant()?, height.constant()?);
+                r * length([v[0], v[1], v[2], 0.0]) + h * a[3] + grow * len
+            }
+            S::Cubinder { radius, height } => {
+                let (r, h) = (radius.constant()?, height.constant()?);
+                r * v[0].hypot(v[1]) + h * (a[2] + a[3]) + grow * len
+            }
+            S::Duocylinder { radius1, radius2 } => {
+                let (r1, r2) = (radius1.constant()?, radius2.constant()?);
+                r1 * v[0].hypot(v[1]) + r2 * v[2].hypot(v[3]) + grow * len
+            }
+            // The polytopes' distances are their largest facet distances, so growing one by g
+            // scales it by 1 + g / inradius.
+            S::Polytope { cells, radius } => {
+                let r = radius.constant()?;
+                match cells {
+                    // Vertices +-r e_i; inradius r / 2.
+                    Polytope::Cell16 => (r + 2.0 * grow) * a.iter().cloned().fold(0.0, f64::max),
+                    // Vertices r / sqrt(2) (+-1, +-1, 0, 0) permuted; inradius r / sqrt(2).
+                    Polytope::Cell24 => {
+                        let mut s = a;
+                        s.sort_by(|x, y| y.total_cmp(x));
+                        (r * std::f64::consts::FRAC_1_SQRT_2 + grow) * (s[0] + s[1])
+                    }
+                    // Within the circumscribed ball; inradius r / 4.
+                    Polytope::Cell5 => (r + 4.0 * grow) * len,
+                }
+            }
+            S::Halfspace { .. } | S::Custom { .. } | S::Tile { .. } => return None,
+            S::Union { shapes, smooth } => {
+                // A smooth minimum is at most k / 4 below the minimum.
+                let g = grow + smooth.constant()?.max(0.0) / 4.0;
+                let hs = shapes.iter().map(|c| c.support(v, g));
+                hs.collect::<Option<Vec<_>>>()?
+                    .into_iter()
+                    .fold(f64::NEG_INFINITY, f64::max)
+            }
+            // A smooth maximum is at least the maximum: the shape lies in every part.
+            S::Intersect { shapes, .. } => shapes
+                .iter()
+                .filter_map(|c| c.support(v, grow))
+                .reduce(f64::min)?,
+            S::Subtract { shape, .. } => shape.support(v, grow)?,
+            S::Onion { shape, thickness } => {
+                shape.support(v, grow + thickness.constant()?.abs() / 2.0)?
+            }
+            S::Round { shape, radius } => shape.support(v, grow + radius.constant()?)?,
+            S::Translate { shape, offset } => {
+                let o = offset.constant()?;
+                shape.support(v, grow)? + (0..4).map(|i| v[i] * o[i]).sum::<f64>()
+            }
+            S::Rotate { shape, rotation } => {
+                let angles: Option<Vec<(Plane, f64)>> = rotation
+                    .iter()
+                    .map(|(p, a)| Some((*p, a.constant()?)))
+                    .collect();
+                match angles {
+                    // The points turned by R: v . R x = (R^-1 v) . x.
+                    Some(steps) => {
+                        let back = rotate(v, steps.into_iter().rev().map(|(p, a)| (p, -a)));
+                        shape.support(back, grow)?
+                    }
+                    // Turning with `t`: a ball about the origin holds every turn.
+                    None => {
+                        let r = (0..4)
+                            .map(|i| {
+                                let mut e = [0.0; 4];
+                                e[i] = 1.0;
+                                let up = shape.support(e, grow)?;
+                                e[i] = -1.0;
+                                Some(up.max(shape.support(e, grow)?).max(0.0))
+                            })
+                            .collect::<Option<Vec<f64>>>()?;
+                        let ball = length([r[0], r[1], r[2], r[3]]);
+                        let rb = shape
+                            .bounds()
+                            .filter(|(c, _)| *c == [0.0; 4] && grow == 0.0);
+                        rb.map_or(ball, |(_, rb)| ball.min(rb)) * len
+                    }
+                }
+            }
+            S::Scale { shape, factor } => {
+                let k = factor.constant()?;
+                if k <= 0.0 {
+                    return None;
+                }
+                k * shape.support(v, grow / k)?
+            }
+            S::Symmetry { shape, normal } => {
+                // The reflected half lies in the mirror image of the shape.
+                let n = normal.constant()?;
+                let nn: f64 = n.iter().map(|x| x * x).sum();
+                if nn == 0.0 {
+                    return None;
+                }
+                let d = (0..4).map(|i| v[i] * n[i]).sum::<f64>() * 2.0 / nn;
+                let m = std::array::from_fn(|i| v[i] - d * n[i]);
+                shape.support(v, grow)?.max(shape.support(m, grow)?)
             }
         })
     }

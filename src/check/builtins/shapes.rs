@@ -440,20 +440,81 @@ fn provably_empty(s: &Shape) -> bool {
     })
 }
 
-/// Warn when a tiled shape reaches outside the cell of its lattice point.
+/// Warn when a tiled shape reaches outside the cell of its lattice point. The cells are
+/// polytopes, so the shape stays inside exactly when its support in each facet's direction is
+/// at most the facet's: for a grid, half the spacing along each repeated axis; for D4, the
+/// 24-cell `|x_i| + |x_j| <= scale`, whose facets face the 24 nearest neighbours.
 fn check_fit(ck: &mut Checker, s: &Shape, lat: &Lattice, lspan: Span, span: Span) {
-    let Some((c, r)) = s.bounds() else { return };
-    let reach = r + distance(c, [0.0; 4]);
-    let room = lat.inradius();
-    if reach > room * (1.0 + 1e-9) {
-        ck.diags.push(
-            Diagnostic::warning("W0002", "the tiled shape does not fit inside its lattice cell")
-                .label(span, format!("this shape reaches {} from its cell's centre", Num(round4(reach))))
-                .label(lspan, format!("but this lattice leaves only {} of room", Num(round4(room))))
-                .note("distances across cell borders are then wrong, and marching can step through surfaces")
-                .help("shrink the shape or space the lattice further apart"),
-        );
+    const AXES: [&str; 4] = ["x", "y", "z", "w"];
+    // (direction towards a neighbour, its facet's distance from the centre, the direction's name)
+    let mut facets: Vec<([f64; 4], f64, String)> = Vec::new();
+    match lat {
+        Lattice::Grid { spacing, limit } => {
+            for i in (0..4).filter(|&i| limit[i] >= 1.0) {
+                for sign in [1.0, -1.0] {
+                    let mut v = [0.0; 4];
+                    v[i] = sign;
+                    let name = format!("{}{}", if sign > 0.0 { "+" } else { "-" }, AXES[i]);
+                    facets.push((v, spacing[i] / 2.0, name));
+                }
+            }
+        }
+        Lattice::D4 { scale } => {
+            for i in 0..4 {
+                for j in i + 1..4 {
+                    for (si, sj) in [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)] {
+                        let mut v = [0.0; 4];
+                        v[i] = si;
+                        v[j] = sj;
+                        let n = v.map(|x| x * std::f64::consts::FRAC_1_SQRT_2);
+                        let at: Vec<String> = v
+                            .iter()
+                            .map(|x| Num(round4(x * scale)).to_string())
+                            .collect();
+                        let name = format!("[{}]", at.join(", "));
+                        facets.push((n, scale * std::f64::consts::FRAC_1_SQRT_2, name));
+                    }
+                }
+            }
+        }
     }
+    // The facet the shape overshoots most, if any.
+    let worst = facets
+        .into_iter()
+        .filter_map(|(v, room, name)| Some((s.support(v, 0.0)?, room, name)))
+        .filter(|(reach, room, _)| *reach > room * (1.0 + 1e-9) + 1e-12)
+        .reduce(|a, b| if b.0 - b.1 > a.0 - a.1 { b } else { a });
+    let Some((reach, room, name)) = worst else {
+        return;
+    };
+    let towards = match lat {
+        Lattice::Grid { .. } => format!("along {name}"),
+        Lattice::D4 { .. } => format!("towards the neighbour at {name}"),
+    };
+    ck.diags.push(
+        Diagnostic::warning(
+            "W0002",
+            "the tiled shape does not fit inside its lattice cell",
+        )
+        .label(
+            span,
+            format!(
+                "this shape reaches {} from its cell's centre {towards}",
+                Num(round4(reach))
+            ),
+        )
+        .label(
+            lspan,
+            format!(
+                "but this lattice leaves only {} of room that way",
+                Num(round4(room))
+            ),
+        )
+        .note(
+            "distances across cell borders are then wrong, and marching can step through surfaces",
+        )
+        .help("shrink the shape or space the lattice further apart"),
+    );
 }
 
 fn round4(x: f64) -> f64 {
