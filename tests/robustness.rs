@@ -387,21 +387,26 @@ fn exponential_recursion_is_bounded() {
     );
 }
 
-/// `hsv` builds colours at compile time; a hue that varies per point or frame is reported
-/// (E0208, as docs/language.md says) rather than silently frozen.
+/// `hsv` of a hue that varies per point or frame is a colour field, as `rgb` of one is; a
+/// constant out of range is still refused.
 #[test]
-fn hsv_needs_constants() {
-    for material in [
-        "diffuse(albedo: hsv(t * 1turn, 0.7, 0.9))",
-        "|p, n| diffuse(albedo: hsv(p.x * 1turn, 0.7, 0.9))",
+fn hsv_takes_fields() {
+    for (material, codes) in [
+        ("diffuse(albedo: hsv(t * 1turn, 0.7, 0.9))", vec![]),
+        ("|p, n| diffuse(albedo: hsv(p.x * 1turn, 0.7, 0.9))", vec![]),
+        (
+            "|p, n| diffuse(albedo: hsv(360deg * fract(p.w), 0.6, 0.9))",
+            vec![],
+        ),
+        (
+            "|p, n| diffuse(albedo: hsv(p.x * 1turn, 1.5, 0.9))",
+            vec!["E0301"],
+        ),
     ] {
-        let text = format!("object o {{ shape = hypersphere(1), material = {material} }}\n");
+        let text =
+            format!("sky = rgb(1)\nobject o {{ shape = hypersphere(1), material = {material} }}\n");
         let r = compile("hsv.4ds", text, LIMIT).unwrap();
-        assert!(
-            r.has_errors && r.codes.contains(&"E0208"),
-            "{material}: {:?}",
-            r.codes
-        );
+        assert_eq!(r.codes, codes, "{material}");
     }
 }
 

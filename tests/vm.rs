@@ -934,3 +934,51 @@ fn frames_march_through_cells_only_where_they_pay() {
         assert!(probe.cells.rays <= 3 * 24 * 24, "{probe:?}");
     }
 }
+
+/// `hsv` of a field gives each hit point its own colour: the material tape's albedo at a point
+/// is the constant `hsv` of that point's hue, in the bytecode and in the plain IR alike.
+#[test]
+fn hsv_of_a_field_colours_each_point() {
+    let scene = compile_text(
+        "sky = rgb(1)\nobject o {\n  shape = hypersphere(1)\n  \
+         material = |p, n| diffuse(albedo: hsv(360deg * fract(p.w), 0.6, clamp(0.5 + p.x, 0, 1)))\n}\n",
+    );
+    let raw = ir::lower(&scene);
+    let prog = hyperslice::compile::program(&raw, None);
+    let o = &raw.objects[0];
+    let mut reference = Reference::new(&raw.graph, &o.material.roots());
+    let mut one = Regs::<f32, 1>::new(&prog.objects[0].material);
+    let mut seen = Vec::new();
+    for (w, x) in [
+        (0.0f64, 0.4f64),
+        (1.0 / 3.0, 0.4),
+        (0.55, 0.1),
+        (0.9, -0.2),
+        (-0.25, 0.3),
+        (2.7, 0.0),
+    ] {
+        let p = [x, 0.0, 0.0, w];
+        let n = [1.0, 0.0, 0.0, 0.0];
+        let want = hyperslice::math::color::hsv(
+            (360.0 * (w - w.floor())).to_radians(),
+            0.6,
+            (0.5 + x).clamp(0.0, 1.0),
+        );
+        reference.run(&vars(p, n, 0.0));
+        // The tape's outputs: the selector, then the albedo's three channels.
+        let got = vm::eval_point(&prog.objects[0].material, &mut one, to32(p), to32(n), 0.0);
+        let roots = o.material.roots();
+        for c in 0..3 {
+            let ir = reference.value(roots[1 + c]);
+            assert!((ir - want[c]).abs() < 1e-9, "ir at {p:?}: {ir} vs {want:?}");
+            assert!(
+                (got[1 + c] as f64 - want[c]).abs() < 1e-5,
+                "vm at {p:?}: {:?} vs {want:?}",
+                &got[1..4]
+            );
+        }
+        seen.push(want);
+    }
+    assert_ne!(seen[0], seen[1], "red at w = 0, green at w = 1/3");
+    assert!((seen[0][0] - 0.9).abs() < 1e-12 && (seen[0][1] - 0.36).abs() < 1e-12);
+}

@@ -2,6 +2,7 @@
 //! functions `d4_cell` and `lattice_cell`.
 
 use super::Args;
+use crate::check::context::Checker;
 use crate::check::ops;
 use crate::check::value::*;
 use crate::diagnostic::Diagnostic;
@@ -52,10 +53,16 @@ pub(super) fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec
             ops::make_color(a.ck, &[r, g, b])
         }
         "hsv" => {
-            let [h, s, v] = [0, 1, 2].map(|i| a.constant(i, &specs[i]));
+            let [h, s, v] = [0, 1, 2].map(|i| a.ranged(i, &specs[i]));
+            if !a.ok {
+                return Value::Error;
+            }
             match (h, s, v) {
                 (Value::Angle(h), Value::Num(s), Value::Num(v)) => {
                     Value::Color(crate::math::color::hsv(h, s, v))
+                }
+                (h, s, v) if [&h, &s, &v].iter().all(|x| !x.is_error()) => {
+                    hsv_field(a.ck, &h, &s, &v)
                 }
                 _ => Value::Error,
             }
@@ -116,4 +123,43 @@ pub(super) fn build(a: &mut Args, name: &'static str, specs: &'static [ParamSpec
         }
         _ => Value::Error,
     }
+}
+
+/// `hsv` of values known only per point or frame, as a colour field:
+/// `v * mix(1, clamp(|fract(h / turn + k) * 6 - 3| - 1, 0, 1), s)` with `k` = 1, 2/3, 1/3 for
+/// red, green and blue, which is `math::color::hsv`. The saturation is clamped to 0..1 and the
+/// value to at least 0, the ranges a constant must be in.
+fn hsv_field(ck: &mut Checker, h: &Value, s: &Value, v: &Value) -> Value {
+    use crate::math::{Bin, Un};
+    use crate::scene::field::{FieldBin as B, FieldOp, MathFn};
+    let num = |ck: &mut Checker, x: f64| ck.lift(&Value::Num(x));
+    let bin = |ck: &mut Checker, op: B, x, y| match ck.field(FieldOp::Binary(op, x, y), Type::Num) {
+        Value::Field(id, _) => id,
+        _ => unreachable!("a field"),
+    };
+    let math =
+        |ck: &mut Checker, f: MathFn, xs: Vec<_>| match ck.field(FieldOp::Math(f, xs), Type::Num) {
+            Value::Field(id, _) => id,
+            _ => unreachable!("a field"),
+        };
+    let (h, s, v) = (ck.lift(h), ck.lift(s), ck.lift(v));
+    let (zero, one) = (num(ck, 0.0), num(ck, 1.0));
+    let s = math(ck, MathFn::Clamp, vec![s, zero, one]);
+    let v = math(ck, MathFn::Bin(Bin::Max), vec![v, zero]);
+    let per_turn = num(ck, 1.0 / std::f64::consts::TAU);
+    let turns = bin(ck, B::Mul, h, per_turn);
+    let (six, three) = (num(ck, 6.0), num(ck, 3.0));
+    let channels = [1.0, 2.0 / 3.0, 1.0 / 3.0].map(|k| {
+        let k = num(ck, k);
+        let x = bin(ck, B::Add, turns, k);
+        let x = math(ck, MathFn::Un(Un::Fract), vec![x]);
+        let x = bin(ck, B::Mul, x, six);
+        let x = bin(ck, B::Sub, x, three);
+        let x = math(ck, MathFn::Un(Un::Abs), vec![x]);
+        let x = bin(ck, B::Sub, x, one);
+        let x = math(ck, MathFn::Clamp, vec![x, zero, one]);
+        let x = math(ck, MathFn::Mix, vec![one, x, s]);
+        Value::Field(bin(ck, B::Mul, v, x), Type::Num)
+    });
+    crate::check::ops::make_color(ck, &channels)
 }
