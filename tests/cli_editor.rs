@@ -737,3 +737,26 @@ fn diagnostics_show_control_characters_escaped() {
         "{err}"
     );
 }
+
+/// A line too long is broken outermost first: an object's settings one per line, a short
+/// vector kept whole, a `fn`'s short parameter list kept on its line with the body after the
+/// `=`, a call's arguments one per line only when the call alone is the value; and a second
+/// pass changes nothing, nor the syntax tree.
+#[test]
+fn fmt_breaks_the_outermost_group_first() {
+    use hyperslice::Compilation;
+    use hyperslice::syntax::format::format;
+    let text = "\
+object left { shape = hyperbox(0.5) |> translate([-2, 0, 0, 0]), material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
+fn pillar(x: num, z: num) -> shape = spherinder(radius: 0.25, height: 3) |> translate([x, 0, z, 0]) |> rotate(xw, 10deg)
+fn short(k: num, r: num) -> shape = hypersphere(r) |> translate([k, 0, 0, 0])
+let big = union(hypersphere(1), hyperbox(0.5) |> translate([1, 0, 0, 0]), cell24(0.7) |> translate([0, 2, 0, 0]))
+render { size = 320 x 200, spp = 8, bounces = 4, epsilon = 0.0001, max_steps = 300, denoise = \"atrous\" }
+";
+    let out = format(hyperslice::source::FileId(0), text).expect("it parses");
+    insta::assert_snapshot!(out);
+    let again = format(hyperslice::source::FileId(0), &out).expect("it parses");
+    assert_eq!(again, out, "a second pass changed it");
+    let ast = |s: &str| Compilation::from_source("f.4ds", s).emit_ast();
+    assert_eq!(ast(text), ast(&out), "the tree changed");
+}

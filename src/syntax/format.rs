@@ -1,6 +1,7 @@
 //! `hyperslice fmt`: one layout for `.4ds` files. The formatter works on the token stream, so
 //! the tokens (and so the syntax tree) stay exactly those of the input except for trailing
-//! commas it adds when it wraps a list: it cannot change what a scene means. The author's line
+//! commas it adds when it wraps a list and the commas between settings it puts on lines of their
+//! own: it cannot change what a scene means. The author's line
 //! breaks stay; runs of blank lines become one; every comment is kept where it was.
 //!
 //! The style:
@@ -10,9 +11,11 @@
 //! - one space around binary operators, `=`, `->` and `|>`, after `,` and `:`, and none
 //!   inside brackets, before `(` and `[` of a call or an index, around `.` and `..`, after a
 //!   prefix `-` or `!`, or inside a lambda's bars;
-//! - a line longer than [`WIDTH`] columns has its first bracketed list that holds a comma
-//!   wrapped: one item per line, each followed by a comma, then again inside the items while
-//!   they are too long.
+//! - a line longer than [`WIDTH`] columns is broken outermost first: its least nested
+//!   bracketed list that holds a comma gets one item per line (call arguments and list items
+//!   each followed by a comma, a block's settings without), or, when that list is in the head
+//!   of a `let`, `fn` or setting or nested in its value, the line breaks after the `=`; then
+//!   again inside the new lines while they are too long.
 
 use super::token::{self, Token};
 use crate::diagnostic::Diagnostic;
@@ -285,65 +288,94 @@ fn width(s: &str) -> usize {
     s.rsplit('\n').next().unwrap_or("").chars().count()
 }
 
-/// Split a line at its first bracketed list with a comma whose closer is on the line: the
-/// head up to the opener, one line per item (each ending in a comma), and the closer with the
-/// rest.
+/// Split a line that is too long, outermost first: a bracketed list with a comma whose closer
+/// is on the line, the least nested one (a settings block before the calls in its fields, a
+/// call's arguments before the vectors in them), becomes the head up to the opener, one line per
+/// item and the closer with the rest. Call and list items end in a comma; a settings block's
+/// fields stand one per line without them. When the least nested list lies in the head of a
+/// `let`, `fn` or setting (`fn f(a, b) -> shape = ...`), or inside its value rather than ending
+/// it (`a |> f(x, y) |> g`), the line breaks after the `=` instead, and the value is wrapped on
+/// its own if need be.
 fn wrap<'s>(line: &Line<'s>) -> Option<Vec<Line<'s>>> {
     let ps = &line.pieces;
-    for (i, p) in ps.iter().enumerate() {
-        if !matches!(code(p), Some(Token::LParen | Token::LBracket)) {
-            continue;
-        }
-        let mut depth = 0;
-        let mut commas = vec![];
-        let mut close = None;
-        for (j, q) in ps.iter().enumerate().skip(i) {
-            match code(q) {
-                Some(t) if is_open(&t) => depth += 1,
-                Some(t) if is_close(&t) => {
-                    depth -= 1;
-                    if depth == 0 {
-                        close = Some(j);
-                        break;
-                    }
+    let at = |v: &[Piece<'s>]| Line {
+        pieces: v.to_vec(),
+        blank_before: false,
+    };
+    // Each list: (opener, closer, its commas, its nesting on this line).
+    let mut lists: Vec<(usize, usize, Vec<usize>, i32)> = vec![];
+    let mut open: Vec<(usize, Vec<usize>)> = vec![];
+    // The first `=` outside every bracket with code after it.
+    let mut eq = None;
+    let last_code = ps.iter().rposition(|p| code(p).is_some());
+    for (j, q) in ps.iter().enumerate() {
+        match code(q) {
+            Some(t) if is_open(&t) => open.push((j, vec![])),
+            Some(t) if is_close(&t) => {
+                if let Some((i, commas)) = open.pop()
+                    && !commas.is_empty()
+                {
+                    lists.push((i, j, commas, open.len() as i32));
                 }
-                Some(Token::Comma) if depth == 1 => commas.push(j),
-                _ => {}
             }
-        }
-        let (Some(close), false) = (close, commas.is_empty()) else {
-            continue;
-        };
-        let at = |v: &[Piece<'s>]| Line {
-            pieces: v.to_vec(),
-            blank_before: false,
-        };
-        let mut out = vec![Line {
-            pieces: ps[..=i].to_vec(),
-            blank_before: line.blank_before,
-        }];
-        let mut from = i + 1;
-        for &c in commas.iter().chain([close].iter()) {
-            let mut item = ps[from..c].to_vec();
-            if !item.is_empty() {
-                if c == close {
-                    item.push(Piece {
-                        text: ",",
-                        kind: Kind::Code(Token::Comma),
-                        breaks: 0,
-                        role: Role::Plain,
-                    });
-                } else {
-                    item.push(ps[c].clone());
+            Some(Token::Comma) => {
+                if let Some((_, commas)) = open.last_mut() {
+                    commas.push(j);
                 }
-                out.push(at(&item));
             }
-            from = c + 1;
+            Some(Token::Eq) if open.is_empty() && eq.is_none() && Some(j) != last_code => {
+                eq = Some(j);
+            }
+            _ => {}
         }
-        out.push(at(&ps[close..]));
-        return Some(out);
     }
-    None
+    // The least nested list, and among those the first after the `=`, else the first.
+    let least = lists.iter().map(|l| l.3).min();
+    let outer: Vec<_> = lists.iter().filter(|l| Some(l.3) == least).collect();
+    let best = outer
+        .iter()
+        .find(|l| eq.is_some_and(|e| l.0 > e))
+        .or(outer.iter().min_by_key(|l| l.0))
+        .copied();
+    if let Some(e) = eq
+        && best.is_none_or(|l| l.0 < e || l.3 > 0 || Some(l.1) != last_code)
+    {
+        return Some(vec![
+            Line {
+                pieces: ps[..=e].to_vec(),
+                blank_before: line.blank_before,
+            },
+            at(&ps[e + 1..]),
+        ]);
+    }
+    let (i, close, commas, _) = best?;
+    let brace = code(&ps[*i]) == Some(Token::LBrace);
+    let mut out = vec![Line {
+        pieces: ps[..=*i].to_vec(),
+        blank_before: line.blank_before,
+    }];
+    let mut from = i + 1;
+    for &c in commas.iter().chain([close]) {
+        let mut item = ps[from..c].to_vec();
+        if !item.is_empty() {
+            if brace {
+                // Settings stand on lines of their own without commas.
+            } else if c == *close {
+                item.push(Piece {
+                    text: ",",
+                    kind: Kind::Code(Token::Comma),
+                    breaks: 0,
+                    role: Role::Plain,
+                });
+            } else {
+                item.push(ps[c].clone());
+            }
+            out.push(at(&item));
+        }
+        from = c + 1;
+    }
+    out.push(at(&ps[*close..]));
+    Some(out)
 }
 
 /// One laid-out line: its text, where its trailing `//` comment starts (after code), and
@@ -403,7 +435,13 @@ fn layout(lines: Vec<Line>) -> String {
             None => base,
         };
         let text = render(&line, indent);
-        if width(&text) > WIDTH
+        // A trailing `//` comment may run past the width; the code before it is what wraps.
+        let code_end = line.pieces.iter().rposition(|p| code(p).is_some());
+        let code_only = Line {
+            pieces: line.pieces[..code_end.map_or(0, |e| e + 1)].to_vec(),
+            blank_before: false,
+        };
+        if width(&render(&code_only, indent)) > WIDTH
             && let Some(split) = wrap(&line)
         {
             for l in split.into_iter().rev() {
