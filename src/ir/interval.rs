@@ -1,7 +1,8 @@
 //! Interval evaluation of the IR: conservative bounds (in `f64`) of every node over a 4D box.
 //! Pruning (`prune.rs`) decides `min`/`max` branches with them, and the marcher proves with
-//! them that a ray has left every object (`Intervals::along`: over the ray itself, not the box
-//! it spans, so a plane the ray moves away from is seen to stay behind it).
+//! them that a ray has left every object, or that a stretch of it meets none
+//! (`Intervals::along`: over the ray itself, not the box it spans, so a plane the ray moves
+//! away from is seen to stay behind it).
 
 use super::{Bin, Graph, Id, Node, Un, Var};
 use crate::math::kernel as k;
@@ -165,8 +166,9 @@ pub struct Along {
     lines: Vec<Line>,
 }
 
-/// A node's value along a ray as `base + slope * s` for every `s >= 0` (the distance from the
-/// ray's start): exact for the linear parts of a graph (planes, turned and moved points).
+/// A node's value along a ray as `base + slope * s` for every `s` in `0..=len` (the distance
+/// from the ray's start; `len` may be infinite): exact for the linear parts of a graph
+/// (planes, turned and moved points).
 #[derive(Clone, Copy, Debug)]
 struct Line {
     base: I,
@@ -180,11 +182,11 @@ impl Line {
             slope: 0.0,
         }
     }
-    /// Every value over `s >= 0`.
-    fn range(self) -> I {
+    /// Every value over `0..=len`.
+    fn range(self, len: f64) -> I {
         match self.slope {
-            m if m > 0.0 => I::new(self.base.lo, f64::INFINITY),
-            m if m < 0.0 => I::new(f64::NEG_INFINITY, self.base.hi),
+            m if m > 0.0 => I::new(self.base.lo, self.base.hi + m * len),
+            m if m < 0.0 => I::new(self.base.lo + m * len, self.base.hi),
             0.0 => self.base,
             _ => I::ALL,
         }
@@ -206,14 +208,21 @@ impl Line {
         (self.slope == 0.0 && self.base.is_point() && self.base.lo.is_finite())
             .then_some(self.base.lo)
     }
-    /// Whether `self <= o - margin` for every `s >= 0`.
-    fn below(self, o: Line, margin: f64) -> bool {
-        self.slope <= o.slope && self.base.hi + margin <= o.base.lo
+    /// Whether `self <= o - margin` for every `s` in `0..=len`: at both ends, the far one at
+    /// infinity a matter of slopes.
+    fn below(self, o: Line, margin: f64, len: f64) -> bool {
+        let far = if len.is_finite() {
+            self.base.hi + self.slope * len + margin <= o.base.lo + o.slope * len
+        } else {
+            self.slope <= o.slope
+        };
+        far && self.base.hi + margin <= o.base.lo
     }
 }
 
-/// The linear form of node `n` along the ray from `o` along `d`, where it has one.
-fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4]) -> Option<Line> {
+/// The linear form of node `n` along the ray from `o` along `d` for `s` in `0..=len`, where it
+/// has one.
+fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4], len: f64) -> Option<Line> {
     let g = |x: Id| f[x.0 as usize];
     let row = |v: [Id; 4], r: [super::K; 5]| {
         (0..4).fold(Line::point(r[4].get()), |acc, i| {
@@ -227,7 +236,7 @@ fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4]) -> Option<Line> {
         },
         Node::Const(c) => Line::point(c.get()),
         Node::Un(Un::Neg, a) => g(a).scale(-1.0),
-        Node::Un(Un::Abs, a) => match g(a).range() {
+        Node::Un(Un::Abs, a) => match g(a).range(len) {
             r if r.lo >= 0.0 => g(a),
             r if r.hi <= 0.0 => g(a).scale(-1.0),
             _ => return None,
@@ -244,10 +253,10 @@ fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4]) -> Option<Line> {
             _ => return None,
         },
         // A branch that wins all along the ray (by the blend width, for smooth ones).
-        Node::Bin(op @ (Bin::Min | Bin::Max), a, b) => pick(op == Bin::Min, g(a), g(b), 0.0)?,
-        Node::SMin(a, b, k) => pick(true, g(a), g(b), g(k).constant()?.max(0.0))?,
-        Node::SMax(a, b, k) => pick(false, g(a), g(b), g(k).constant()?.max(0.0))?,
-        Node::Select(c, a, b) => match g(c).range() {
+        Node::Bin(op @ (Bin::Min | Bin::Max), a, b) => pick(op == Bin::Min, g(a), g(b), 0.0, len)?,
+        Node::SMin(a, b, k) => pick(true, g(a), g(b), g(k).constant()?.max(0.0), len)?,
+        Node::SMax(a, b, k) => pick(false, g(a), g(b), g(k).constant()?.max(0.0), len)?,
+        Node::Select(c, a, b) => match g(c).range(len) {
             c if c == I::point(0.0) => g(b),
             c if c.excludes_zero() => g(a),
             _ => return None,
@@ -257,12 +266,12 @@ fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4]) -> Option<Line> {
     })
 }
 
-/// The operand of a min (`min`) or max that it returns all along the ray, if one does by at
-/// least `margin`.
-fn pick(min: bool, a: Line, b: Line, margin: f64) -> Option<Line> {
-    let (lo, hi) = if a.below(b, margin) {
+/// The operand of a min (`min`) or max that it returns all along the ray (to `len`), if one
+/// does by at least `margin`.
+fn pick(min: bool, a: Line, b: Line, margin: f64, len: f64) -> Option<Line> {
+    let (lo, hi) = if a.below(b, margin, len) {
         (a, b)
-    } else if b.below(a, margin) {
+    } else if b.below(a, margin, len) {
         (b, a)
     } else {
         return None;
@@ -270,18 +279,55 @@ fn pick(min: bool, a: Line, b: Line, margin: f64) -> Option<Line> {
     Some(if min { lo } else { hi })
 }
 
+/// The values of `|v + offset| - sub` (a `Length` node's `r`) for `s` in `0..=len` when every
+/// coordinate is a line through points (`base` a point): the square is a quadratic in `s`,
+/// least at its vertex (clamped to the stretch) and greatest at an end.
+fn sphere(v: [Line; 4], r: [super::K; 5], len: f64) -> Option<I> {
+    if !len.is_finite() || v.iter().any(|l| !l.base.is_point()) {
+        return None;
+    }
+    let c: [f64; 4] = std::array::from_fn(|i| v[i].base.lo + r[i].get());
+    let (mut a, mut b) = (0.0, 0.0);
+    for i in 0..4 {
+        a += v[i].slope * v[i].slope;
+        b += v[i].slope * c[i];
+    }
+    // Evaluated as a sum of squares at each point, not expanded, so no cancellation.
+    let at = |s: f64| {
+        (0..4)
+            .map(|i| (c[i] + v[i].slope * s).powi(2))
+            .sum::<f64>()
+            .sqrt()
+    };
+    let vertex = if a > 0.0 {
+        (-b / a).clamp(0.0, len)
+    } else {
+        0.0
+    };
+    let (lo, hi) = (at(vertex), at(0.0).max(at(len)));
+    (lo.is_finite() && hi.is_finite()).then(|| I::new(lo, hi).add(I::point(-r[4].get())))
+}
+
 impl Intervals {
-    /// Bounds of every node over the ray from `o` along `d` (`s >= 0`), in `along`'s buffers:
-    /// linear parts are followed exactly along it, the rest bounded over the values their
-    /// operands take there. At least as tight as bounds over the box the ray spans, and tighter
-    /// wherever the ray's coordinates are correlated (a plane turned out of the axes).
-    pub fn along<'a>(along: &'a mut Along, g: &Graph, o: [f64; 4], d: [f64; 4]) -> &'a Intervals {
+    /// Bounds of every node over the ray from `o` along `d` (`s` in `0..=len`, `len` infinite
+    /// for the rest of the ray), in `along`'s buffers: linear parts are followed exactly along
+    /// it, a translated sphere's distance exactly too (its square is a quadratic in `s`), the
+    /// rest bounded over the values their operands take there. At least as tight as bounds over
+    /// the box the ray spans, and tighter wherever the ray's coordinates are correlated (a
+    /// plane turned out of the axes, a sphere the ray passes).
+    pub fn along<'a>(
+        along: &'a mut Along,
+        g: &Graph,
+        o: [f64; 4],
+        d: [f64; 4],
+        len: f64,
+    ) -> &'a Intervals {
         let span = |a: usize| {
             Line {
                 base: I::point(o[a]),
                 slope: d[a],
             }
-            .range()
+            .range(len)
         };
         let vars = |v: Var| match v.index() {
             a @ 0..4 => span(a),
@@ -295,14 +341,18 @@ impl Intervals {
         for i in 0..g.len() {
             let n = g.get(Id(i as u32));
             let outs = iv.outs.len();
-            let l = match line(n, lines, o, d) {
+            let l = match line(n, lines, o, d, len) {
                 Some(l) => l,
                 None => Line {
-                    base: iv.node(n, &vars),
+                    base: match n {
+                        Node::Length(v, r) => sphere(v.map(|x| lines[x.0 as usize]), r, len)
+                            .unwrap_or_else(|| iv.node(n, &vars)),
+                        _ => iv.node(n, &vars),
+                    },
                     slope: 0.0,
                 },
             };
-            iv.vals.push(l.range());
+            iv.vals.push(l.range(len));
             iv.start.push(if iv.outs.len() > outs {
                 outs as u32
             } else {

@@ -149,7 +149,8 @@ fn cells(
         }
     }
     let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
-    let escape = Escape::new(&ir.graph, (lo, hi), &distances);
+    let scene = (ir.distance, ir.nearest);
+    let escape = Escape::new(&ir.graph, (lo, hi), &distances, scene, ir.interior);
     if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
         return (None, escape);
     }

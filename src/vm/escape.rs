@@ -1,31 +1,87 @@
 //! The proof that a ray has left the scene: it never enters the box of the bounded objects
-//! again, and no unbounded object's distance reaches zero along the rest of it. Both marchers
-//! (the cells' and the plain one) end a ray at the sky only on this proof, never by
-//! travelling far.
+//! again, and no unbounded object's distance reaches zero along the rest of it. Every marcher
+//! ends a ray at the sky only on this proof, never by travelling far. And the proof that a
+//! stretch of a ray meets no surface, which lets a ray crawling beside one leap ahead
+//! (`Escape::clear`).
 
 use crate::ir::interval::{Along, Intervals};
 use crate::ir::{Graph, Id};
 use glam::DVec4;
 
 /// The box `lo..hi` holds every bounded object, and `roots` are the distances of the unbounded
-/// ones (halfspaces, tilings, custom fields).
+/// ones (halfspaces, tilings, custom fields). `whole` holds the scene's distance and, where
+/// objects can be entered, its interior distance (`distances`).
 pub struct Escape {
     lo: DVec4,
     hi: DVec4,
     graph: Graph,
     roots: Vec<Id>,
+    whole: Graph,
+    /// The distance and nearest object outside objects, and inside them.
+    distances: [Option<(Id, Id)>; 2],
 }
 
 impl Escape {
-    /// From the frame's graph: the box of its bounded objects and the distances of the others.
-    pub fn new(g: &Graph, bounded: (DVec4, DVec4), unbounded: &[Id]) -> Escape {
+    /// From the frame's graph: the box of its bounded objects, the distances of the others, and
+    /// the scene's distance and nearest object, outside objects and inside them (`None` where
+    /// no object can be entered).
+    pub fn new(
+        g: &Graph,
+        bounded: (DVec4, DVec4),
+        unbounded: &[Id],
+        scene: (Id, Id),
+        interior: Option<(Id, Id)>,
+    ) -> Escape {
         let (graph, map) = g.rebuild(unbounded, |g, n| g.intern(n));
+        let roots: Vec<Id> = [scene]
+            .into_iter()
+            .chain(interior)
+            .flat_map(|(d, n)| [d, n])
+            .collect();
+        let (whole, at) = g.compact(&roots);
+        let at = |(d, n): (Id, Id)| (at[d.0 as usize], at[n.0 as usize]);
         Escape {
             lo: bounded.0,
             hi: bounded.1,
             graph,
             roots: unbounded.iter().map(|r| map[r.0 as usize]).collect(),
+            whole,
+            distances: [Some(at(scene)), interior.map(at)],
         }
+    }
+
+    /// The scene's (for a ray inside objects, the interior, unsigned) distance at `p` in
+    /// `f64`, and the nearest object's index (-1 for none): the bounds of a stretch of length
+    /// zero, where every bound is a point.
+    pub fn distance(&self, p: DVec4, interior: bool, proofs: &mut Proofs) -> (f64, f64) {
+        let (root, near) = self.root(interior);
+        let iv = Intervals::along(&mut proofs.along, &self.whole, p.to_array(), [0.0; 4], 0.0);
+        proofs.bounded += self.whole.len() as u64;
+        (iv.get(root).lo, iv.get(near).lo)
+    }
+
+    fn root(&self, interior: bool) -> (Id, Id) {
+        (self.distances[interior as usize])
+            .or(self.distances[0])
+            .expect("the scene's distance")
+    }
+
+    /// Whether the stretch of `len` from `p` along `d` provably meets no surface: the
+    /// scene's distance (for a ray inside objects, the interior one, unsigned) stays above
+    /// zero all along it (`Intervals::along`). Exact for planes and spheres, so a ray
+    /// crawling beside one (grazing it, or closing in at a shallow angle) can leap ahead to
+    /// just short of where it meets it.
+    pub fn clear(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> bool {
+        let (root, _) = self.root(interior);
+        let iv = Intervals::along(
+            &mut proofs.along,
+            &self.whole,
+            p.to_array(),
+            d.to_array(),
+            len,
+        );
+        proofs.bounded += self.whole.len() as u64;
+        iv.get(root).lo > 0.0
     }
 
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
@@ -53,7 +109,8 @@ impl Escape {
         // Objects past the mask's 64 bits count only when all are out of the way.
         let mut rest = true;
         if !self.roots.is_empty() {
-            let iv = Intervals::along(&mut proofs.along, &self.graph, p.to_array(), d.to_array());
+            let (p, d) = (p.to_array(), d.to_array());
+            let iv = Intervals::along(&mut proofs.along, &self.graph, p, d, f64::INFINITY);
             proofs.bounded += self.graph.len() as u64;
             for (i, r) in self.roots.iter().enumerate() {
                 let x = iv.get(*r);

@@ -145,6 +145,10 @@ pub(super) struct State {
     leave: f64,
     /// The partial cell the pending step was taken in, by address (0: none).
     from: usize,
+    /// The most a crawling ray tries to leap next (0: not set yet), and the point (`t`,
+    /// distance) where it last could (`crawl`).
+    leap: f64,
+    last: (f64, f64),
 }
 
 impl State {
@@ -382,7 +386,7 @@ impl Marcher {
                             hits[k] = Hit::OutOfSteps;
                             continue;
                         } else if partial {
-                            partial_step(st, d, near, cell, r.tmax)
+                            partial_step(st, (d, near), cell, r, (escape, &mut self.proofs))
                         } else if let Some(back) = unrelax(st, d.min(st.holds)) {
                             back
                         } else if d < st.tol && near >= 0.0 {
@@ -390,6 +394,9 @@ impl Marcher {
                                 t: st.t,
                                 object: near as usize,
                             }
+                        } else if let Some(s) = crawl(escape, r, st, (d, st.tol), &mut self.proofs)
+                        {
+                            s
                         } else {
                             // A relaxed step is only verified at the next point, so none
                             // may end the segment: the last step to `tmax` is a plain one.
@@ -477,7 +484,13 @@ fn object(o: f64) -> usize {
 /// pieces hold only in the cell and are met exactly up to its side; the rest's
 /// sphere covers the rest, and a relaxed step is checked on it at the next point if that is
 /// still in the cell (the pieces being clear up to there), and on the whole distance if not.
-fn partial_step(st: &mut State, d: f64, near: f32, cell: &Cell, tmax: f64) -> Step {
+fn partial_step(
+    st: &mut State,
+    (d, near): (f64, f32),
+    cell: &Cell,
+    r: &Ray,
+    (escape, proofs): (&Escape, &mut Proofs),
+) -> Step {
     let here = address(cell);
     let (pieces, first) = (st.near, (st.first.0 - st.t, st.first.1));
     let exit = (st.leave - st.t).max(0.0);
@@ -499,9 +512,11 @@ fn partial_step(st: &mut State, d: f64, near: f32, cell: &Cell, tmax: f64) -> St
             t: st.t + first.0,
             object: object(first.1),
         }
+    } else if let Some(s) = crawl(escape, r, st, (d.min(pieces.0), st.tol), proofs) {
+        s
     } else {
         let mut step = (st.omega * d).min(first.0);
-        if st.t + step >= tmax {
+        if st.t + step >= r.tmax {
             step = d;
         }
         if step >= exit {
@@ -527,6 +542,63 @@ fn past(exit: f64, cell: &Cell) -> f64 {
 /// lattice, which never leaves it; retrying at `2t + 1` was an eighth of a tiling's render.
 fn retry(t: f64) -> f64 {
     4.0 * t + 4.0
+}
+
+/// Steps after which a ray counts as crawling: sphere steps shrink beside a surface the ray
+/// grazes or closes in on at a shallow angle, and it may take thousands of them.
+const CRAWL: u32 = 32;
+/// A crawling ray's first leap, in distances at its point.
+const LEAP: f64 = 16.0;
+
+/// What a crawling ray at `t` (where no relaxed step is pending, the tape's distance there `d`)
+/// does instead of its sphere step, if anything. It leaps over the stretch ahead that
+/// provably meets no surface (`Escape::clear`) if a try finds one longer than the step it
+/// would take. A try aims at 0.9 of where the distance, falling as it did since the last
+/// point, would reach zero (a plane met at a shallow angle), at most four times the last
+/// leap (or `LEAP` distances at first); a failed try quarters the next. A ray that cannot
+/// leap is near a surface, where the tape's `f32` distance may be all rounding (far from the
+/// origin): it ends on, or steps by, the distance in `f64` (`Escape::distance`) where that is
+/// nearer.
+fn crawl(
+    escape: &Escape,
+    r: &Ray,
+    st: &mut State,
+    (d, tol): (f64, f64),
+    proofs: &mut Proofs,
+) -> Option<Step> {
+    let last = std::mem::replace(&mut st.last, (st.t, d));
+    if st.steps < CRAWL {
+        return None;
+    }
+    if st.leap <= 0.0 {
+        st.leap = LEAP * d;
+    }
+    let fall = (last.1 - d) / (st.t - last.0);
+    let aim = if fall > 0.0 {
+        0.9 * d / fall
+    } else {
+        f64::INFINITY
+    };
+    let len = aim.min(st.leap).min(r.tmax - st.t);
+    let p = r.o + r.d * st.t;
+    if len > 2.0 * d {
+        if escape.clear(p, r.d, len, r.interior, proofs) {
+            st.leap = 4.0 * len;
+            return Some(Step::Advance(len));
+        }
+        st.leap = if len > 8.0 * d { len / 4.0 } else { 0.0 };
+    }
+    let (exact, near) = escape.distance(p, r.interior, proofs);
+    if exact < tol && near >= 0.0 {
+        Some(Step::Hit {
+            t: st.t,
+            object: near as usize,
+        })
+    } else if exact < d {
+        Some(Step::Advance(exact))
+    } else {
+        None
+    }
 }
 
 /// Apply one step's outcome to ray `k`: record its hit, or move it on and keep it marching

@@ -4,9 +4,10 @@
 //! whole-tape marcher, `--marcher whole`) steps are over-relaxed and checked as the cells'
 //! are (`unrelax`); without it (`--marcher plain`) each step is the distance itself: the
 //! baseline the other marchers are timed and tested against. A ray sees the sky on the same
-//! proof as there (`Escape::escapes`), retried as there (`retry`).
+//! proof as there (`Escape::escapes`), retried as there (`retry`), and a crawling ray leaps
+//! as there (`crawl`).
 
-use super::{Field, Hit, Limits, Marcher, Ray, State, Step, finish, retry, unrelax};
+use super::{Field, Hit, Limits, Marcher, Ray, State, Step, crawl, finish, retry, unrelax};
 use crate::vm::cells::epsilon_at;
 use crate::vm::escape::Proofs;
 
@@ -50,13 +51,16 @@ impl Marcher {
                         hits[k] = Hit::OutOfSteps;
                         continue;
                     }
+                    let tol = epsilon_at(r.o + r.d * st.t, limits.epsilon);
                     let step = if let Some(back) = unrelax(st, d) {
                         back
-                    } else if d < epsilon_at(r.o + r.d * st.t, limits.epsilon) && near >= 0.0 {
+                    } else if d < tol && near >= 0.0 {
                         Step::Hit {
                             t: st.t,
                             object: near as usize,
                         }
+                    } else if let Some(s) = crawl(field.escape, r, st, (d, tol), &mut self.proofs) {
+                        s
                     } else {
                         // A relaxed step is only verified at the next point, so none may end
                         // the segment: the last step to `tmax` is a plain one.
