@@ -794,10 +794,15 @@ fn summary(
     );
     if s.out_of_steps > 0 {
         eprintln!(
-            "warning: {} ray segment{} ran out of marching steps (max_steps {}); their paths were ended there",
+            "warning: {} ray segment{} ran out of marching steps (max_steps {}); {} ended there",
             s.out_of_steps,
             if s.out_of_steps == 1 { "" } else { "s" },
-            r.max_steps
+            r.max_steps,
+            if s.out_of_steps == 1 {
+                "its path was"
+            } else {
+                "their paths were"
+            }
         );
     }
     if s.dropped > 0 {
