@@ -20,11 +20,11 @@ pub struct BenchArgs {
     #[arg(long, value_parser = parse_size)]
     size: Option<(u32, u32)>,
     /// Number of frames. Default: the scene's (1 with --quick).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_frames)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_frames)]
     frames: Option<u32>,
     /// Least samples per pixel of the reference render; it takes at least 100 times the most
     /// samples of any configuration measured.
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000_000), conflicts_with = "reference")]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_reference_spp, conflicts_with = "reference")]
     reference_spp: Option<u32>,
     /// Compare with this linear OpenEXR instead of rendering a reference: one file, or numbered
     /// frames `stem_0000.exr`, ... (as `render -o REF.exr` writes them), at the sweep's size and
@@ -40,11 +40,11 @@ pub struct BenchArgs {
     #[arg(long)]
     out: Option<PathBuf>,
     /// Worker threads (0: every core). Default: the scene's setting (2 with --marcher-corpus).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: Option<u32>,
     /// Renders of each configuration; the time reported is their median. Default 5 (1 with
     /// --quick, 3 with --marcher-corpus).
-    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100))]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_repeats)]
     repeats: Option<u32>,
     /// Measure only these families, comma-separated: baseline, no-light-sampling, random,
     /// median, atrous, epsilon, max-steps, bounces, preset. Default: all.
@@ -62,12 +62,27 @@ pub struct BenchArgs {
     #[arg(long, conflicts_with_all = ["file", "costs", "reference", "reference_spp", "spp_list", "families", "size", "frames", "quick", "out"])]
     marcher_corpus: bool,
     /// With --marcher-corpus: how many generated scenes (seeds 1, 2, ...).
-    #[arg(long, default_value_t = 20, requires = "marcher_corpus", value_parser = clap::value_parser!(u64).range(0..=10_000))]
+    #[arg(long, default_value_t = 20, requires = "marcher_corpus", allow_hyphen_values = true, value_parser = parse_generated)]
     generated: u64,
     /// Shrink everything for a fast check: 32x24, one frame, 1,2,4 spp (a 400-spp reference),
     /// only the draft preset.
     #[arg(long)]
     quick: bool,
+}
+
+/// The counts the bench takes, refused like the render settings: with the value and the range.
+macro_rules! count_flags {
+    ($($f:ident: $t:ty = $name:literal in $lo:literal ..= $hi:literal,)*) => {$(
+        fn $f(s: &str) -> Result<$t, String> {
+            hyperslice::scene::ranges::whole($name, $lo, $hi).parse(s).map(|x| x as $t)
+        }
+    )*};
+}
+
+count_flags! {
+    parse_reference_spp: u32 = "the reference's spp" in 1.0 ..= 100_000_000.0,
+    parse_repeats: u32 = "repeats" in 1.0 ..= 100.0,
+    parse_generated: u64 = "generated" in 0.0 ..= 10_000.0,
 }
 
 #[derive(Clone)]

@@ -234,9 +234,10 @@ pub const CODES: &[Code] = &[
     code!(
         "E0301",
         "value out of range",
-        "`hypersphere(radius: -1)`, `glass(ior: 0)`, `render { size = 0 x 240 }`",
+        "`hypersphere(radius: -1)`, `glass(ior: 0)`, `render { size = 0 x 240 }`, `1e400`, `exp(1000)`",
         "A value of the right type outside the range the parameter or setting allows. The label \
-         gives the value and the rule.",
+         gives the value and the rule. A number past the largest one (about 1.8e308), written \
+         or computed, is one too; `inf` written as such is not.",
         "object ball { shape = hypersphere(radius: -1) }",
         "object ball { shape = hypersphere(radius: 1) }"
     ),

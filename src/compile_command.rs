@@ -14,10 +14,10 @@ pub struct CompileArgs {
     #[arg(long, default_value = "scene")]
     emit: Emit,
     /// For `ir` and `bytecode`: the frame whose tapes to show (0 is the first; the default).
-    #[arg(long, conflicts_with = "t")]
+    #[arg(long, conflicts_with = "t", allow_hyphen_values = true, value_parser = crate::render_command::parse_frame)]
     frame: Option<u32>,
     /// For `ir` and `bytecode`: the animation time `t` whose tapes to show (0 to 1).
-    #[arg(long)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_t)]
     t: Option<f64>,
     /// Write the text to FILE (atomically) instead of standard output.
     #[arg(long, value_name = "FILE", conflicts_with = "check")]
@@ -28,6 +28,16 @@ pub struct CompileArgs {
     check: Option<PathBuf>,
     #[command(flatten)]
     scene: crate::SceneArgs,
+}
+
+/// `--t`: a time of the animation, from 0 (the first frame) to 1 (the last).
+fn parse_t(s: &str) -> Result<f64, String> {
+    let range = "t must be a number from 0 to 1";
+    match s.trim().parse::<f64>() {
+        Ok(t) if (0.0..=1.0).contains(&t) => Ok(t),
+        Ok(t) if t.is_finite() => Err(format!("`{s}` is out of range: {range}")),
+        _ => Err(format!("`{s}` is not a number: {range}")),
+    }
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -105,9 +115,16 @@ fn check(path: &Path, text: &str) -> ExitCode {
         path.display()
     );
     let name = path.display().to_string();
+    // The file may hold anything; its lines reach the terminal escaped.
     eprint!(
         "{}",
-        diff.unified_diff().context_radius(2).header(&name, "now")
+        hyperslice::diagnostic::escape_controls(
+            &diff
+                .unified_diff()
+                .context_radius(2)
+                .header(&name, "now")
+                .to_string()
+        )
     );
     eprintln!(
         "help: if the change is intended, write it again with `--out {}`",

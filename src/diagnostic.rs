@@ -233,9 +233,12 @@ const MAX_ECHOED_LINE: usize = 200;
 
 /// How a control character is shown in a report, as rustc does: a C0 character or DEL as its
 /// Unicode control picture (`\u{1b}` as `␛`), any other as `\u{..}`. A raw one would reach the
-/// terminal: ESC `[31m` recolours it, NUL and DEL garble it. Tabs and line breaks stay.
+/// terminal: ESC `[31m` recolours it, NUL and DEL garble it, CR overwrites the line. The
+/// bidirectional embeddings, overrides and isolates (U+202A to U+202E, U+2066 to U+2069) are
+/// shown as `\u{..}` too: raw, they reorder the rest of the line on the terminal, so a report
+/// would not show the text as the compiler reads it. Tabs and LF stay.
 pub fn control_picture(c: char) -> Option<String> {
-    if !c.is_control() || c == '\t' || crate::source::LINE_BREAKS.contains(&c) {
+    if c == '\t' || c == '\n' || !(c.is_control() || is_bidi_control(c)) {
         return None;
     }
     Some(match c as u32 {
@@ -245,8 +248,15 @@ pub fn control_picture(c: char) -> Option<String> {
     })
 }
 
-/// `text` with every control character but tabs and line breaks shown as
-/// [`control_picture`] gives it.
+/// A bidirectional formatting character that changes the order of what follows it on the
+/// line: the embeddings and overrides U+202A to U+202E and the isolates U+2066 to U+2069.
+pub fn is_bidi_control(c: char) -> bool {
+    matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
+/// `text` with every control character but tabs and LF, and every bidirectional control,
+/// shown as [`control_picture`] gives it. Everything the command line prints about a file name,
+/// an argument or a scene goes through it.
 pub fn escape_controls(text: &str) -> std::borrow::Cow<'_, str> {
     if !text.chars().any(|c| control_picture(c).is_some()) {
         return text.into();
@@ -255,6 +265,23 @@ pub fn escape_controls(text: &str) -> std::borrow::Cow<'_, str> {
         .map(|c| control_picture(c).unwrap_or_else(|| c.to_string()))
         .collect::<String>()
         .into()
+}
+
+/// `value` as one line of JSON in which nothing reaches a terminal raw: serde_json escapes
+/// the C0 controls, and this the rest that [`control_picture`] escapes (DEL, the C1 controls
+/// and the bidirectional controls), as `\uXXXX`, which any JSON reader reads back as the
+/// same character. Such characters stand only inside strings.
+pub fn json_line(value: &serde_json::Value) -> String {
+    let text = value.to_string();
+    if !text.chars().any(|c| control_picture(c).is_some()) {
+        return text;
+    }
+    text.chars()
+        .map(|c| match control_picture(c) {
+            Some(_) => format!("\\u{:04x}", c as u32),
+            None => c.to_string(),
+        })
+        .collect()
 }
 
 /// How the text of one file is changed for a report: each overlong line is cut a little past
@@ -334,4 +361,23 @@ impl Clip {
 /// Render a list of diagnostics, errors and warnings in source order.
 pub fn render_all(diags: &[Diagnostic], sources: &SourceMap, color: bool) -> String {
     diags.iter().map(|d| d.render(sources, color)).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn controls_and_bidi_controls_are_escaped() {
+        assert_eq!(
+            escape_controls("a\u{202e}b\u{2066}c\u{2069}\rd\u{1b}[0m\te\n"),
+            "a\\u{202e}b\\u{2066}c\\u{2069}\u{240d}d\u{241b}[0m\te\n"
+        );
+        // Other right-to-left text is left alone: only the controls reorder a line.
+        assert_eq!(escape_controls("שלום ok"), "שלום ok");
+        let v = serde_json::json!({ "file": "a\u{202e}\u{7f}\u{9b}\u{1b}.4ds" });
+        let line = json_line(&v);
+        assert_eq!(line, r#"{"file":"a\u202e\u007f\u009b\u001b.4ds"}"#);
+        assert_eq!(serde_json::from_str::<serde_json::Value>(&line).unwrap(), v);
+    }
 }

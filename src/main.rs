@@ -7,6 +7,23 @@ use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
+/// Every line the commands print on standard error goes through `escape_controls`: a file
+/// name, an argument or an error's text echoed raw could hold ESC (recolouring the terminal), CR
+/// (overwriting the line) or a bidirectional override (reordering it). Defined before the
+/// modules, it stands in for the standard `eprintln!` in all of them. Reports, whose colours are
+/// escapes on purpose, are printed with `eprint!`, after escaping what they quote themselves.
+macro_rules! eprintln {
+    () => {
+        ::std::eprintln!()
+    };
+    ($($arg:tt)*) => {
+        ::std::eprintln!(
+            "{}",
+            hyperslice::diagnostic::escape_controls(&::std::format!($($arg)*))
+        )
+    };
+}
+
 mod bench_command;
 mod compile_command;
 mod fmt_command;
@@ -65,7 +82,10 @@ impl SceneArgs {
             MessageFormat::Human => eprint!("{}", c.render_diagnostics(color)),
             MessageFormat::Json => {
                 for d in &c.diagnostics {
-                    println!("{}", d.to_json(&c.sources));
+                    println!(
+                        "{}",
+                        hyperslice::diagnostic::json_line(&d.to_json(&c.sources))
+                    );
                 }
             }
         }

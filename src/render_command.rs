@@ -27,34 +27,34 @@ pub struct RenderArgs {
     #[arg(long, allow_hyphen_values = true, value_parser = parse_size)]
     size: Option<(u32, u32)>,
     /// Number of frames (t goes from 0 to 1 over them).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_frames)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_frames)]
     frames: Option<u32>,
     /// Samples per pixel.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_spp)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_spp)]
     spp: Option<u32>,
     /// Most bounces of one light path.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_bounces)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_bounces)]
     bounces: Option<u32>,
     /// Marching epsilon: how close to a surface counts as a hit, in (0, 1].
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_epsilon)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_epsilon)]
     epsilon: Option<f64>,
     /// Most marching steps along one ray.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_max_steps)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_max_steps)]
     max_steps: Option<u32>,
     /// Random seed, from 0 to 2^53.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_seed)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_seed)]
     seed: Option<u64>,
     /// Worker threads (0: every core).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_threads)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_threads)]
     threads: Option<u32>,
     /// Quality preset: sets spp, bounces, epsilon and max steps (explicit flags win).
     #[arg(long)]
     quality: Option<QualityArg>,
     /// Brightness multiplier, in (0, 1000000].
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_exposure)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_exposure)]
     exposure: Option<f64>,
     /// Frames per second of the animation, in (0, 100].
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_fps)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_fps)]
     fps: Option<f64>,
     /// Denoising filter applied to the frames.
     #[arg(long)]
@@ -66,7 +66,7 @@ pub struct RenderArgs {
     time_budget: Option<Duration>,
     /// Adaptive sampling: a pixel stops once the standard error of its luminance is below this
     /// fraction of its mean (e.g. 0.02); `spp` is the most it takes.
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_fraction)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_fraction)]
     noise_threshold: Option<f64>,
     /// Next-event estimation towards spherical lights (with multiple importance sampling).
     #[arg(long, default_value = "on")]
@@ -82,7 +82,7 @@ pub struct RenderArgs {
     marcher: MarcherKind,
     /// Render only frame N of the scene's animation (0-based; `t` as in the whole animation).
     /// The file gets the frame's own number, e.g. out_0012.png.
-    #[arg(long, value_name = "N", conflicts_with = "frame_range")]
+    #[arg(long, value_name = "N", conflicts_with = "frame_range", allow_hyphen_values = true, value_parser = parse_frame)]
     frame: Option<u32>,
     /// Render only frames A..B (half-open, 0-based; A..=B includes B) of the animation, each
     /// identical to the same frame of a whole render and numbered as in it.
@@ -127,12 +127,14 @@ enum Switch {
 fn parse_duration(s: &str) -> Result<Duration, String> {
     let err = || format!("`{s}` is not a duration; write e.g. 30s, 2m or 500ms");
     let t = s.trim();
-    let Some(i) = t.find(|c: char| c.is_ascii_alphabetic()) else {
+    // The unit is the letters at the end, so that `1e3s` is a thousand seconds.
+    let i = t.trim_end_matches(|c: char| c.is_ascii_alphabetic()).len();
+    if i == t.len() {
         return Err(match t.parse::<f64>() {
             Ok(_) => format!("`{s}` has no unit; write {t}s for seconds (or {t}m, {t}ms)"),
             Err(_) => err(),
         });
-    };
+    }
     let (number, unit) = t.split_at(i);
     let x: f64 = number.trim().parse().map_err(|_| err())?;
     let seconds = match unit {
@@ -170,6 +172,7 @@ setting_flags! {
     parse_epsilon: f64 = EPSILON,
     parse_fps: f64 = FPS,
     parse_exposure: f64 = EXPOSURE,
+    parse_frame: u32 = FRAME,
 }
 
 /// `A..B`, `A..=B` or `A..` (to the last frame).
@@ -230,11 +233,11 @@ fn parse_shard(s: &str) -> Result<(u32, u32), String> {
 fn parse_fraction(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
         Ok(x) if x > 0.0 && x < 1.0 => Ok(x),
-        Ok(_) => Err(format!(
-            "`{s}` is out of range: it must be a number in (0, 1)"
+        Ok(x) if x.is_finite() => Err(format!(
+            "`{s}` is out of range: the noise threshold must be a number in (0, 1)"
         )),
-        Err(_) => Err(format!(
-            "`{s}` is not a number: it must be a number in (0, 1)"
+        _ => Err(format!(
+            "`{s}` is not a number: the noise threshold must be a number in (0, 1)"
         )),
     }
 }
@@ -794,10 +797,15 @@ fn summary(
     );
     if s.out_of_steps > 0 {
         eprintln!(
-            "warning: {} ray segment{} ran out of marching steps (max_steps {}); their paths were ended there",
+            "warning: {} ray segment{} ran out of marching steps (max_steps {}); {} ended there",
             s.out_of_steps,
             if s.out_of_steps == 1 { "" } else { "s" },
-            r.max_steps
+            r.max_steps,
+            if s.out_of_steps == 1 {
+                "its path was"
+            } else {
+                "their paths were"
+            }
         );
     }
     if s.dropped > 0 {
@@ -926,10 +934,10 @@ pub struct MergeArgs {
     #[arg(long)]
     denoise: Option<Denoise>,
     /// Brightness multiplier (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_exposure)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_exposure)]
     exposure: Option<f64>,
     /// Frames per second of a GIF (default: the scene's).
-    #[arg(long, allow_negative_numbers = true, value_parser = parse_fps)]
+    #[arg(long, allow_hyphen_values = true, value_parser = parse_fps)]
     fps: Option<f64>,
 }
 
@@ -987,5 +995,26 @@ mod tests {
     #[test]
     fn the_rate_reads_samples_per_second() {
         assert_eq!(super::sample_rate(990_740, 2.0), "495,370 samples/s");
+    }
+
+    /// The unit is the letters at the end, so an exponent is part of the number.
+    #[test]
+    fn durations_take_exponents_and_give_the_range() {
+        use super::parse_duration;
+        use std::time::Duration;
+        assert_eq!(parse_duration("1e3s"), Ok(Duration::from_secs(1000)));
+        assert_eq!(parse_duration("2.5e-1m"), Ok(Duration::from_secs(15)));
+        assert_eq!(
+            parse_duration("1e30h").unwrap_err(),
+            "`1e30h` is out of range: a duration must be more than 0s and less than 10000000s"
+        );
+        for bad in ["NaNs", "infs", "10parsecs", "s", "1e"] {
+            assert!(
+                parse_duration(bad)
+                    .unwrap_err()
+                    .contains("is not a duration"),
+                "{bad}"
+            );
+        }
     }
 }

@@ -587,3 +587,452 @@ proptest! {
         prop_assert!(r.is_ok(), "{}", r.unwrap_err());
     }
 }
+
+// ---------------------------------------------------------------------------------------------
+// What a new user types: bad flags, odd files and mistaken scenes, on every command.
+
+/// What a case must do besides neither crashing nor garbling the terminal: succeed, or be
+/// refused with a message holding every one of the strings (the value and the range).
+enum Want {
+    Accepted,
+    Refused(&'static [&'static str]),
+}
+
+/// The files the cases use, written into a fresh directory.
+fn mistakes_dir() -> tempfile::TempDir {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let lit = "sky = rgb(1)\nobject b { shape = hypersphere(1) }\n";
+    let files: Vec<(&str, Vec<u8>)> = vec![
+        (
+            "good.4ds",
+            format!("render {{ size = 8 x 6, spp = 1 }}\n{lit}").into_bytes(),
+        ),
+        (
+            "anim.4ds",
+            format!("render {{ size = 8 x 6, spp = 1, frames = 3 }}\n{lit}").into_bytes(),
+        ),
+        ("empty.4ds", vec![]),
+        ("comment.4ds", b"// only a comment\n".to_vec()),
+        ("binary.4ds", (0..=255u8).cycle().take(1024).collect()),
+        (
+            "latin1.4ds",
+            b"sky = rgb(1) // caf\xe9\nobject b { shape = hypersphere(1) }\n".to_vec(),
+        ),
+        (
+            "crlf.4ds",
+            b"sky = rgb(1)\r\nobject b {\r\n\tshape = hypersfere(1)\r\n}\r\n".to_vec(),
+        ),
+        (
+            "bidi.4ds",
+            "sky = rgb(1) /* \u{202e} \u{2066} */\nobject b { shape = hypersphere(-1) } // \u{2069}\n"
+                .into(),
+        ),
+        (
+            "bidi_name.4ds",
+            "sky = rgb(1)\nobject b { shape = hyper\u{202e}sphere(1) }\n".into(),
+        ),
+        (
+            "escape.4ds",
+            b"sky = rgb(1)\nobject b { shape = hypersphere(1) \x1b[31m\x9b }\n".to_vec(),
+        ),
+        (
+            "parens.4ds",
+            format!("{lit}let a = {}1\n", "(".repeat(10_000)).into_bytes(),
+        ),
+        (
+            "long_line.4ds",
+            format!("{lit}let _a = 1{} + hypersfere\n", " + 0".repeat(50)).into_bytes(),
+        ),
+        (
+            "huge.4ds",
+            b"sky = rgb(1)\nobject b { shape = hypersphere(1e400) }\n".to_vec(),
+        ),
+        (
+            "overflow.4ds",
+            b"let a = 1e308 * 10\nlet b = exp(1000)\nsky = rgb(1)\nobject o { shape = hypersphere(a + b), material = light(intensity: pow(10, 400)) }\n"
+                .to_vec(),
+        ),
+        (
+            "inf.4ds",
+            b"let big = 2 * inf\nsky = rgb(1)\nobject o { shape = hypersphere(0.2) |> tile(grid(1, limit: [2, 0, big, 0])) }\n"
+                .to_vec(),
+        ),
+        (
+            "negative_zero.4ds",
+            b"render { epsilon = -0 }\nsky = rgb(1)\nobject b { shape = hypersphere(-0) }\n"
+                .to_vec(),
+        ),
+        (
+            "div0.4ds",
+            format!("let k = 1 / (2 - 2)\n{lit}").into_bytes(),
+        ),
+        (
+            "recursion.4ds",
+            format!("fn f(n: num) -> num = g(n + 1)\nfn g(n: num) -> num = f(n)\nlet _x = f(0)\n{lit}")
+                .into_bytes(),
+        ),
+        ("cycle_a.4ds", format!("import \"cycle_b.4ds\"\n{lit}").into_bytes()),
+        ("cycle_b.4ds", b"import \"cycle_c.4ds\"\n".to_vec()),
+        ("cycle_c.4ds", b"import \"cycle_b.4ds\"\n".to_vec()),
+        ("import_dir.4ds", format!("import \"folder.4ds\"\n{lit}").into_bytes()),
+        ("import_binary.4ds", format!("import \"binary.4ds\"\n{lit}").into_bytes()),
+        (
+            "size.4ds",
+            format!("render {{ size = 1 x 100000 }}\n{lit}").into_bytes(),
+        ),
+        (
+            "seed.4ds",
+            format!("render {{ seed = 1e300 }}\n{lit}").into_bytes(),
+        ),
+        (
+            "fov.4ds",
+            format!("camera {{ fov = 180deg }}\n{lit}").into_bytes(),
+        ),
+        (
+            "fov_type.4ds",
+            format!("camera {{ fov = 60 }}\n{lit}").into_bytes(),
+        ),
+        (
+            "camera_typo.4ds",
+            format!("camera {{ form = [0, 0, -4, 0] }}\n{lit}").into_bytes(),
+        ),
+        (
+            "quality.4ds",
+            format!("render {{ quality = \"fast\" }}\n{lit}").into_bytes(),
+        ),
+        (
+            "threads.4ds",
+            format!("render {{ threads = 1e10 }}\n{lit}").into_bytes(),
+        ),
+        (
+            "let.4ds",
+            b"let r = 1\nsky = rgb(1)\nobject b { shape = hypersphere(r) }\n".to_vec(),
+        ),
+    ];
+    for (name, bytes) in files {
+        std::fs::write(dir.path().join(name), bytes).expect("written");
+    }
+    std::fs::create_dir(dir.path().join("folder.4ds")).expect("a folder");
+    std::fs::create_dir(dir.path().join("films")).expect("a folder");
+    dir
+}
+
+/// Raw bytes that would act on a terminal: C0 controls but LF and tab, DEL, C1 controls and the
+/// bidirectional embeddings, overrides and isolates.
+fn raw_controls(bytes: &[u8]) -> Vec<char> {
+    String::from_utf8_lossy(bytes)
+        .chars()
+        .filter(|&c| {
+            (c.is_control() && c != '\n' && c != '\t')
+                || matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+        })
+        .collect()
+}
+
+/// Every mistake below ends without a panic or an abort and without a raw control character in
+/// what it prints, and every refusal gives the offending value and the allowed range.
+#[test]
+fn cli_new_user_mistakes() {
+    use Want::*;
+    let dir = mistakes_dir();
+    let r = |flag: &'static str, value: &'static str| -> Vec<&'static str> {
+        vec!["render", "good.4ds", "-o", "out.png", flag, value]
+    };
+    let cases: Vec<(Vec<&str>, Want)> = vec![
+        // Render flags: every number, at and past its ends, NaN and infinities.
+        (r("--size", "0x0"), Refused(&["`0`", "1 to 16384"])),
+        (
+            r("--size", "1x100000"),
+            Refused(&["`100000`", "1 to 16384"]),
+        ),
+        (r("--size", "NaNxNaN"), Refused(&["`NaN`", "1 to 16384"])),
+        (r("--size", "8x6x2"), Refused(&["`6x2`", "1 to 16384"])),
+        (r("--spp", "inf"), Refused(&["`inf`", "1 to 1000000"])),
+        (
+            r("--spp", "1180591620717411303424"),
+            Refused(&["`1180591620717411303424`", "1 to 1000000"]),
+        ),
+        (r("--bounces", "1e400"), Refused(&["`1e400`", "0 to 1000"])),
+        (r("--bounces", "-0"), Accepted),
+        (r("--epsilon", "NaN"), Refused(&["`NaN`", "(0, 1]"])),
+        (r("--epsilon", "-0"), Refused(&["`-0`", "(0, 1]"])),
+        (r("--epsilon", "1e-400"), Refused(&["`1e-400`", "(0, 1]"])),
+        (
+            r("--max-steps", "0x10"),
+            Refused(&["`0x10`", "1 to 1000000"]),
+        ),
+        (
+            r("--seed", "9007199254740993"),
+            Refused(&["`9007199254740993`", "0 to 9007199254740992"]),
+        ),
+        (r("--threads", "NaN"), Refused(&["`NaN`", "0 to 1024"])),
+        (
+            r("--exposure", "-inf"),
+            Refused(&["`-inf`", "(0, 1000000]"]),
+        ),
+        (r("--fps", "0"), Refused(&["`0`", "(0, 100]"])),
+        (r("--frames", "1e9"), Refused(&["`1e9`", "1 to 10000"])),
+        (r("--frame", "-1"), Refused(&["`-1`", "0 to 9999"])),
+        (r("--frame", "NaN"), Refused(&["`NaN`", "0 to 9999"])),
+        (r("--frame", "5"), Refused(&["frame 5", "1 frame"])),
+        (
+            r("--frame-range", "3..1"),
+            Refused(&["`3..1`", "holds no frames"]),
+        ),
+        (r("--noise-threshold", "NaN"), Refused(&["`NaN`", "(0, 1)"])),
+        (r("--noise-threshold", "-1"), Refused(&["`-1`", "(0, 1)"])),
+        (
+            r("--time-budget", "1e30h"),
+            Refused(&["`1e30h`", "less than 10000000s"]),
+        ),
+        (
+            r("--time-budget", "10parsecs"),
+            Refused(&["`10parsecs`", "30s"]),
+        ),
+        (r("--shard", "3/2"), Refused(&["`3/2`", "0 <= K < N"])),
+        (r("--quality", "ultra"), Refused(&["ultra", "draft"])),
+        (
+            vec!["render", "good.4ds", "-o", "folder.4ds"],
+            Refused(&["folder.4ds", "directory"]),
+        ),
+        (
+            vec!["render", "good.4ds", "-o", "o\x1b[31m.jpg"],
+            Refused(&[".jpg", ".gif, .png or .exr"]),
+        ),
+        (
+            vec!["render", "no\x1b[2J\u{202e}such.4ds"],
+            Refused(&["such.4ds", "no such file"]),
+        ),
+        (
+            vec!["render", "negative_zero.4ds"],
+            Refused(&["-0", "(0, 1]"]),
+        ),
+        // Compile, merge, bench, fmt, explain.
+        (
+            vec!["compile", "anim.4ds", "--emit", "ir", "--frame", "99"],
+            Refused(&["frame 99", "0 to 2"]),
+        ),
+        (
+            vec!["compile", "anim.4ds", "--emit", "ir", "--t", "NaN"],
+            Refused(&["`NaN`", "0 to 1"]),
+        ),
+        (
+            vec!["compile", "anim.4ds", "--emit", "ir", "--t", "-inf"],
+            Refused(&["`-inf`", "0 to 1"]),
+        ),
+        (
+            vec!["compile", "anim.4ds", "--emit", "ir", "--t", "2"],
+            Refused(&["`2`", "0 to 1"]),
+        ),
+        (
+            vec!["compile", "good.4ds", "--check", "binary.4ds"],
+            Refused(&["binary.4ds"]),
+        ),
+        (
+            vec!["merge", "films", "-o", "m.gif", "--fps", "NaN"],
+            Refused(&["`NaN`", "(0, 100]"]),
+        ),
+        (vec!["merge", "films", "-o", "m.gif"], Refused(&["films"])),
+        (
+            vec!["merge", "no\x1b[0mdir", "-o", "m.gif"],
+            Refused(&["dir"]),
+        ),
+        (
+            vec!["bench", "good.4ds", "--quick", "--repeats", "-1"],
+            Refused(&["`-1`", "1 to 100"]),
+        ),
+        (
+            vec!["bench", "good.4ds", "--quick", "--reference-spp", "NaN"],
+            Refused(&["`NaN`", "1 to 100000000"]),
+        ),
+        (
+            vec![
+                "bench",
+                "--marcher-corpus",
+                "--generated",
+                "99999999999999999999",
+            ],
+            Refused(&["`99999999999999999999`", "0 to 10000"]),
+        ),
+        (
+            vec!["bench", "good.4ds", "--quick", "--spp-list", "0,1"],
+            Refused(&["`0`", "1..=1000000"]),
+        ),
+        (
+            vec!["fmt", "--check", "binary.4ds"],
+            Refused(&["binary.4ds", "UTF-8"]),
+        ),
+        (vec!["fmt", "folder.4ds"], Refused(&["folder.4ds"])),
+        (
+            vec!["fmt", "--check", "parens.4ds"],
+            Refused(&["parens.4ds", "256"]),
+        ),
+        (
+            vec!["explain", "E\x1b[2J0201\u{202e}"],
+            Refused(&["no diagnostic code", "E0201,"]),
+        ),
+        // Odd files.
+        (vec!["check", "empty.4ds"], Accepted),
+        (vec!["check", "comment.4ds"], Accepted),
+        (
+            vec!["check", "binary.4ds"],
+            Refused(&["binary.4ds", "UTF-8"]),
+        ),
+        (
+            vec!["check", "latin1.4ds"],
+            Refused(&["latin1.4ds", "UTF-8"]),
+        ),
+        (
+            vec!["check", "folder.4ds"],
+            Refused(&["folder.4ds", "directory"]),
+        ),
+        (
+            vec!["check", "crlf.4ds"],
+            Refused(&["crlf.4ds:3:", "hypersphere"]),
+        ),
+        (
+            vec!["check", "bidi.4ds"],
+            Refused(&["-1", "at least 0", "\\u{2069}"]),
+        ),
+        (
+            vec!["check", "--message-format", "json", "bidi.4ds"],
+            Refused(&["-1", "at least 0"]),
+        ),
+        (vec!["check", "bidi_name.4ds"], Refused(&["\\u{202e}"])),
+        (vec!["check", "escape.4ds"], Refused(&["\u{241b}"])),
+        (vec!["check", "parens.4ds"], Refused(&["256"])),
+        (
+            vec!["check", "long_line.4ds"],
+            Refused(&["hypersfere", "hypersphere"]),
+        ),
+        (vec!["check", "huge.4ds"], Refused(&["1e400", "1.8e308"])),
+        (
+            vec!["check", "overflow.4ds"],
+            Refused(&["infinity", "1.8e308", "3 errors"]),
+        ),
+        (vec!["check", "inf.4ds"], Accepted),
+        (
+            vec!["check", "div0.4ds"],
+            Refused(&["E0302", "this is zero"]),
+        ),
+        (vec!["check", "recursion.4ds"], Refused(&["E0401", "64"])),
+        (
+            vec!["check", "cycle_a.4ds"],
+            Refused(&["E0501", "cycle_b.4ds"]),
+        ),
+        (
+            vec!["check", "import_dir.4ds"],
+            Refused(&["folder.4ds", "directory"]),
+        ),
+        (
+            vec!["check", "import_binary.4ds"],
+            Refused(&["binary.4ds", "UTF-8"]),
+        ),
+        // Scene mistakes.
+        (
+            vec!["check", "size.4ds"],
+            Refused(&["1 x 100000", "1 to 16384"]),
+        ),
+        (
+            vec!["check", "seed.4ds"],
+            Refused(&["1e300", "0 to 9007199254740992"]),
+        ),
+        (
+            vec!["check", "threads.4ds"],
+            Refused(&["10000000000", "0 to 1024"]),
+        ),
+        (
+            vec!["check", "fov.4ds"],
+            Refused(&["180deg", "between 0deg and 180deg"]),
+        ),
+        (vec!["check", "fov_type.4ds"], Refused(&["E0210", "angle"])),
+        (vec!["check", "camera_typo.4ds"], Refused(&["form", "from"])),
+        (vec!["check", "quality.4ds"], Refused(&["fast", "draft"])),
+        (
+            vec!["check", "let.4ds", "-D", "r=1\u{202e}"],
+            Refused(&["\\u{202e}"]),
+        ),
+        (
+            vec!["check", "let.4ds", "-D", "r=-1"],
+            Refused(&["-1", "at least 0"]),
+        ),
+        (
+            vec!["check", "let.4ds", "-D", "r=1e308 * 10"],
+            Refused(&["infinity", "1.8e308"]),
+        ),
+    ];
+    let mut failures = vec![];
+    for (args, want) in &cases {
+        let out = Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+            .args(args)
+            .current_dir(dir.path())
+            .output()
+            .expect("run hyperslice");
+        let all = [out.stdout.as_slice(), out.stderr.as_slice()].concat();
+        let text = String::from_utf8_lossy(&all);
+        let mut wrong = vec![];
+        match out.status.code() {
+            None | Some(101 | 134) => wrong.push(format!("crashed: {:?}", out.status)),
+            _ if text.contains("panicked") => wrong.push("panicked".to_string()),
+            _ => {}
+        }
+        let raw = raw_controls(&all);
+        if !raw.is_empty() {
+            wrong.push(format!("raw {raw:?}"));
+        }
+        match want {
+            Accepted if !out.status.success() => wrong.push("refused".to_string()),
+            Refused(_) if out.status.success() => wrong.push("accepted".to_string()),
+            Refused(says) => {
+                for s in says.iter().filter(|s| !text.contains(*s)) {
+                    wrong.push(format!("no {s:?}"));
+                }
+            }
+            _ => {}
+        }
+        if !wrong.is_empty() {
+            failures.push(format!("{args:?}: {}\n{text}", wrong.join(", ")));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n\n"));
+}
+
+/// Standard input that is not a scene: `fmt -` refuses bytes that are not UTF-8, and the
+/// language server ends on a stream that is not its protocol; neither panics nor echoes it raw.
+#[test]
+fn cli_odd_standard_input() {
+    use std::io::Write;
+    for (args, input) in [
+        (["fmt", "-"], (0..=255u8).collect::<Vec<u8>>()),
+        (
+            ["lsp", "--color=never"],
+            b"garbage\r\n\r\n\x00\x1b[2J".to_vec(),
+        ),
+        (
+            ["lsp", "--color=never"],
+            b"Content-Length: 99999999999999999999\r\n\r\n{}".to_vec(),
+        ),
+    ] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_hyperslice"))
+            .args(args)
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("run hyperslice");
+        let mut stdin = child.stdin.take().expect("stdin");
+        // The server may stop reading before the end; a broken pipe is fine.
+        let _ = stdin.write_all(&input);
+        drop(stdin);
+        let out = child.wait_with_output().expect("it ends");
+        let all = [out.stdout.as_slice(), out.stderr.as_slice()].concat();
+        let text = String::from_utf8_lossy(&all);
+        assert!(
+            !matches!(out.status.code(), None | Some(101 | 134)) && !text.contains("panicked"),
+            "{args:?}: {:?}\n{text}",
+            out.status
+        );
+        assert!(!out.status.success(), "{args:?}: {text}");
+        assert!(raw_controls(&all).is_empty(), "{args:?}: {text}");
+    }
+}

@@ -34,7 +34,8 @@ impl Checker<'_> {
                 if !value.is_finite() {
                     return self.error(
                         Diagnostic::error("E0301", "number too large")
-                            .label(span, "this is beyond the range of a number"),
+                            .label(span, "this is past the largest number (about 1.8e308)")
+                            .help("write `inf` where an unlimited value is meant"),
                     );
                 }
                 match unit {

@@ -220,8 +220,33 @@ pub fn binary(
                 .label(bspan, "this is zero")
                 .label(aspan, "so this cannot be divided by it"),
         ),
-        _ => const_binary(op, &a, &b, &ty),
+        _ => {
+            let out = const_binary(op, &a, &b, &ty);
+            overflow(ck, &[&a, &b], out, span)
+        }
     }
+}
+
+/// The largest number, as the messages about overflow give it.
+const LARGEST: &str = "about 1.8e308";
+
+/// `out`, or E0301 where it is infinite but nothing it came from (`inputs`) is: the constant
+/// arithmetic ran past the range of a number, as `1e308 * 10` or `exp(1000)` do, and an
+/// infinite intensity or position would only turn into NaN pixels. `inf` itself, written or
+/// carried through (`2 * inf`, a grid's unlimited axis), stays.
+fn overflow(ck: &mut Checker, inputs: &[&Value], out: Value, span: Span) -> Value {
+    let infinite = |v: &Value| lanes(v).is_some_and(|l| l.iter().any(|x| x.is_infinite()));
+    if infinite(&out) && !inputs.iter().any(|v| infinite(v)) {
+        return ck.error(
+            Diagnostic::error("E0301", "number too large")
+                .label(
+                    span,
+                    format!("this comes to infinity, past the largest number ({LARGEST})"),
+                )
+                .help("use smaller values, or write `inf` where an unlimited value is meant"),
+        );
+    }
+    out
 }
 
 fn range(ck: &mut Checker, lo: f64, hi: f64, aspan: Span, bspan: Span, span: Span) -> Value {
@@ -543,6 +568,7 @@ pub fn math(ck: &mut Checker, f: MathFn, name: &str, args: Vec<ArgVal>, span: Sp
         return ck.field(FieldOp::Math(f, ids), ret);
     }
     let out = apply(f, &vals, &ret);
+    let out = overflow(ck, &vals.iter().collect::<Vec<_>>(), out, span);
     if lanes(&out).is_some_and(|l| l.iter().any(|x| x.is_nan())) {
         return ck.error(
             Diagnostic::error("E0301", format!("`{name}` is undefined here"))

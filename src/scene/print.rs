@@ -20,6 +20,10 @@ impl fmt::Display for Num {
         if v.is_infinite() {
             return f.write_str(if v > 0.0 { "inf" } else { "-inf" });
         }
+        // 1e300 as written, not as 301 digits; below 1e21 every whole number reads in full.
+        if v.abs() >= 1e21 {
+            return write!(f, "{v:e}");
+        }
         write!(f, "{v}")
     }
 }

@@ -15,7 +15,7 @@ pub struct SettingRange {
     pub whole: bool,
 }
 
-const fn whole(name: &'static str, lo: f64, hi: f64) -> SettingRange {
+pub const fn whole(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     SettingRange {
         name,
         lo,
@@ -24,7 +24,7 @@ const fn whole(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     }
 }
 
-const fn above(name: &'static str, lo: f64, hi: f64) -> SettingRange {
+pub const fn above(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     SettingRange {
         name,
         lo,
@@ -45,6 +45,8 @@ pub const FPS: SettingRange = above("fps", 0.0, 100.0);
 pub const EXPOSURE: SettingRange = above("exposure", 0.0, 1e6);
 /// Each side of the image.
 pub const SIDE: SettingRange = whole("each side of the image", 1.0, 16384.0);
+/// One frame of an animation, by its 0-based number (`--frame`).
+pub const FRAME: SettingRange = whole("frame", 0.0, FRAMES.hi - 1.0);
 
 impl SettingRange {
     pub fn contains(&self, x: f64) -> bool {
@@ -67,6 +69,14 @@ impl SettingRange {
     /// A flag's value: the number, or a message with the value and the range.
     pub fn parse(&self, text: &str) -> Result<f64, String> {
         let range = format!("{} must be {}", self.name, self.describe());
+        // A whole number is compared as written: `9007199254740993` would round to 2^53 as
+        // a float and pass.
+        if self.whole
+            && let Ok(n) = text.trim().parse::<i128>()
+            && (n < self.lo as i128 || n > self.hi as i128)
+        {
+            return Err(format!("`{text}` is out of range: {range}"));
+        }
         match text.trim().parse::<f64>() {
             Ok(x) if x.is_finite() && self.contains(x) => Ok(x),
             Ok(x) if x.is_finite() => {
@@ -103,5 +113,14 @@ mod tests {
         );
         assert_eq!(FPS.parse("100"), Ok(100.0));
         assert!(FPS.parse("0").is_err() && FPS.parse("nan").is_err());
+        assert_eq!(
+            SEED.parse("9007199254740993").unwrap_err(),
+            "`9007199254740993` is out of range: seed must be a whole number from 0 to 9007199254740992"
+        );
+        assert_eq!(SEED.parse("9007199254740992"), Ok(9007199254740992.0));
+        assert_eq!(
+            FRAME.parse("-1").unwrap_err(),
+            "`-1` is out of range: frame must be a whole number from 0 to 9999"
+        );
     }
 }
