@@ -7,7 +7,7 @@ use hyperslice::Compilation;
 use hyperslice::ir;
 use hyperslice::ir::Var;
 use hyperslice::ir::eval::{Reference, vars};
-use hyperslice::ir::interval::{I, Intervals};
+use hyperslice::ir::interval::{Along, I, Intervals};
 use hyperslice::scene::Scene;
 use hyperslice::vm::{self, Dual, LANES, Program, Regs, Tape};
 use rand::{Rng, SeedableRng};
@@ -260,6 +260,58 @@ fn interval_bounds_contain_every_value() {
                             file.display(),
                             tape.name
                         );
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Bounds along a stretch of a ray (`Intervals::along`, what escape proofs and crawling rays'
+/// leaps rest on) hold every value the reference takes on it, for the examples, the test
+/// scenes and generated ones, over stretches from none to the rest of the ray; over no
+/// stretch they are the value itself.
+#[test]
+fn bounds_along_a_stretch_contain_every_value_on_it() {
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    let mut scenes: Vec<(Scene, f64)> = (scene_files().iter())
+        .map(|f| (compile_file(f), 4.0))
+        .collect();
+    for seed in 1..=60 {
+        let g = hyperslice::generate::generate(seed);
+        let c = Compilation::from_source("generated.4ds", &g.source);
+        scenes.push((c.scene.expect("a generated scene"), 4.0 * g.scale));
+    }
+    let mut along = Along::default();
+    for (scene, scale) in &scenes {
+        let prog = hyperslice::compile::Compiled::new(scene).program(Some(0.5));
+        let ir = &prog.ir;
+        let roots: Vec<_> = [ir.distance]
+            .into_iter()
+            .chain(ir.interior.map(|i| i.0))
+            .collect();
+        let mut reference = Reference::new(&ir.graph, &roots);
+        for _ in 0..20 {
+            let o = random_point(&mut rng, *scale);
+            let d = random_unit(&mut rng);
+            let len = [0.0, 1e-3, 0.1, 1.0, 10.0][rng.random_range(0..5)] * scale;
+            let bounds = Intervals::along(&mut along, &ir.graph, o, d, len);
+            for k in 0..=16 {
+                let s = len * k as f64 / 16.0;
+                reference.run(&vars(
+                    std::array::from_fn(|a| o[a] + d[a] * s),
+                    [0.0; 4],
+                    0.5,
+                ));
+                for root in &roots {
+                    let (b, x) = (bounds.get(*root), reference.value(*root));
+                    let slack = 1e-9 * (scale + x.abs());
+                    assert!(
+                        I::new(b.lo - slack, b.hi + slack).contains(x),
+                        "{x} outside {b:?} at s = {s} of {len} from {o:?} along {d:?}"
+                    );
+                    if len == 0.0 && x.is_finite() {
+                        assert!((b.lo - x).abs() <= slack && (b.hi - x).abs() <= slack);
                     }
                 }
             }

@@ -164,6 +164,10 @@ pub struct Intervals {
 pub struct Along {
     iv: Intervals,
     lines: Vec<Line>,
+    /// The outputs of tuples followed exactly (`cell`), and where each node's start
+    /// (`u32::MAX` for none).
+    tuples: Vec<Line>,
+    tuple_start: Vec<u32>,
 }
 
 /// A node's value along a ray as `base + slope * s` for every `s` in `0..=len` (the distance
@@ -279,6 +283,50 @@ fn pick(min: bool, a: Line, b: Line, margin: f64, len: f64) -> Option<Line> {
     Some(if min { lo } else { hi })
 }
 
+/// The outputs of a tiling's node (`D4`, `Rep`) as lines, where its operands are lines through
+/// points and both ends of the stretch fall in one cell of the tiling: the cells are convex, so
+/// the whole stretch is in it, and the offset from its centre is the operand less a constant.
+fn cell(n: Node, f: &[Line], len: f64) -> Option<[Line; 8]> {
+    let g = |x: Id| f[x.0 as usize];
+    let ends = |l: Line| {
+        (l.base.is_point() && l.slope.is_finite() && len.is_finite())
+            .then(|| (l.base.lo, l.base.lo + l.slope * len))
+    };
+    let mut out = [Line::point(0.0); 8];
+    match n {
+        Node::D4(v) => {
+            let v = v.map(g);
+            let e: [(f64, f64); 4] = [ends(v[0])?, ends(v[1])?, ends(v[2])?, ends(v[3])?];
+            let (a, b) = (k::d4(e.map(|x| x.0)), k::d4(e.map(|x| x.1)));
+            if a[4..] != b[4..] {
+                return None;
+            }
+            for i in 0..4 {
+                out[i] = Line {
+                    base: I::point(a[i]),
+                    slope: v[i].slope,
+                };
+                out[4 + i] = Line::point(a[4 + i]);
+            }
+        }
+        Node::Rep(x, l) => {
+            let (x, l) = (g(x), l.get());
+            let (s, e) = ends(x)?;
+            let (a, b) = (k::rep(s, l), k::rep(e, l));
+            if a[1] != b[1] {
+                return None;
+            }
+            out[0] = Line {
+                base: I::point(a[0]),
+                slope: x.slope,
+            };
+            out[1] = Line::point(a[1]);
+        }
+        _ => return None,
+    }
+    Some(out)
+}
+
 /// The values of `|v + offset| - sub` (a `Length` node's `r`) for `s` in `0..=len` when every
 /// coordinate is a line through points (`base` a point): the square is a quadratic in `s`,
 /// least at its vertex (clamped to the stretch) and greatest at an end.
@@ -333,15 +381,43 @@ impl Intervals {
             a @ 0..4 => span(a),
             _ => I::ALL,
         };
-        let Along { iv, lines } = along;
+        let Along {
+            iv,
+            lines,
+            tuples,
+            tuple_start,
+        } = along;
         iv.vals.clear();
         iv.start.clear();
         iv.outs.clear();
         lines.clear();
+        tuples.clear();
+        tuple_start.clear();
         for i in 0..g.len() {
             let n = g.get(Id(i as u32));
             let outs = iv.outs.len();
-            let l = match line(n, lines, o, d, len) {
+            let exact = |x: Id| {
+                let at = tuple_start[x.0 as usize];
+                (at != u32::MAX).then_some(at as usize)
+            };
+            let l = match n {
+                Node::Proj(t, j) if exact(t).is_some() => {
+                    Some(tuples[exact(t).unwrap() + j as usize])
+                }
+                _ => line(n, lines, o, d, len),
+            };
+            tuple_start.push(u32::MAX);
+            if let Some(exact) = cell(n, lines, len) {
+                tuple_start[i] = tuples.len() as u32;
+                tuples.extend_from_slice(&exact[..n.arity()]);
+                iv.outs
+                    .extend(exact[..n.arity()].iter().map(|l| l.range(len)));
+                iv.vals.push(I::ALL);
+                iv.start.push(outs as u32);
+                lines.push(Line::point(f64::NAN));
+                continue;
+            }
+            let l = match l {
                 Some(l) => l,
                 None => Line {
                     base: match n {

@@ -524,6 +524,18 @@ impl Cell {
         }
     }
 
+    /// How much more than the epsilon at `p` an interior ray's distance from the cell's
+    /// interior tape may be off (its rounding, where that exceeds the epsilon: far from the
+    /// origin), 0 where the tape resolves the epsilon.
+    pub fn slack(&self, p: DVec4, epsilon: f64) -> f64 {
+        let e = epsilon_at(p - self.origin, epsilon);
+        if self.rounding.is_finite() && self.rounding > e {
+            self.rounding
+        } else {
+            0.0
+        }
+    }
+
     /// Which cell this is, the same in every run (its depth and corner), for ordering work
     /// by cell without depending on where it lives in memory.
     pub fn id(&self) -> (u32, [u64; 4]) {

@@ -20,7 +20,7 @@ mod plain;
 
 use crate::ir::exact::Piece;
 use crate::vm::Tape;
-use crate::vm::cells::{Cell, Cells};
+use crate::vm::cells::{Cell, Cells, epsilon_at};
 use crate::vm::escape::{Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
@@ -136,6 +136,8 @@ pub(super) struct State {
     tol: f64,
     /// How far from `p` its cell's distances hold (`Cells::gap`).
     holds: f64,
+    /// How far an interior ray's distance from its cell's tape may be off (`Cell::slack`).
+    slack: f64,
     /// The partial cell whose pieces the ray has met, by address (0: none), the nearest
     /// piece where it entered (infinity after that), the `t` of the first it meets and the
     /// `t` at which it leaves the cell.
@@ -145,9 +147,12 @@ pub(super) struct State {
     leave: f64,
     /// The partial cell the pending step was taken in, by address (0: none).
     from: usize,
-    /// The most a crawling ray tries to leap next (0: not set yet), and the point (`t`,
-    /// distance) where it last could (`crawl`).
+    /// The most a crawling ray tries to leap next (0: not set yet), the step count before
+    /// which it does not try and how long it waited last, and the point (`t`, distance) where
+    /// it last could (`crawl`).
     leap: f64,
+    leap_at: u32,
+    wait: u32,
     last: (f64, f64),
 }
 
@@ -286,6 +291,16 @@ impl Marcher {
                 };
                 let tol = cell.epsilon(p, limits.epsilon, r.interior);
                 st.tol = tol;
+                // Where the interior tape may be off by more than the epsilon, rays inside
+                // objects still end within the epsilon, in `f64` (`careful`).
+                st.slack = if r.interior {
+                    cell.slack(p, limits.epsilon)
+                } else {
+                    0.0
+                };
+                if st.slack > 0.0 {
+                    st.tol = epsilon_at(p - cell.origin, limits.epsilon);
+                }
                 // Nothing in the cell: cross it, and a sphere step beyond, since the bound
                 // holds on the cell's sides too; short of the sphere by the tolerance, since
                 // a tight bound (a floor parallel to the cell) puts its edge on the surface,
@@ -387,6 +402,9 @@ impl Marcher {
                             continue;
                         } else if partial {
                             partial_step(st, (d, near), cell, r, (escape, &mut self.proofs))
+                        } else if r.interior {
+                            let (tol, slack) = (st.tol, st.slack);
+                            careful(escape, st, r, (d, tol, slack), &mut self.proofs)
                         } else if let Some(back) = unrelax(st, d.min(st.holds)) {
                             back
                         } else if d < st.tol && near >= 0.0 {
@@ -394,8 +412,7 @@ impl Marcher {
                                 t: st.t,
                                 object: near as usize,
                             }
-                        } else if let Some(s) = crawl(escape, r, st, (d, st.tol), &mut self.proofs)
-                        {
+                        } else if let Some(s) = crawl(escape, r, st, d, &mut self.proofs) {
                             s
                         } else {
                             // A relaxed step is only verified at the next point, so none
@@ -512,7 +529,7 @@ fn partial_step(
             t: st.t + first.0,
             object: object(first.1),
         }
-    } else if let Some(s) = crawl(escape, r, st, (d.min(pieces.0), st.tol), proofs) {
+    } else if let Some(s) = crawl(escape, r, st, d.min(pieces.0), proofs) {
         s
     } else {
         let mut step = (st.omega * d).min(first.0);
@@ -544,30 +561,58 @@ fn retry(t: f64) -> f64 {
     4.0 * t + 4.0
 }
 
+/// The step of a ray inside objects at `t`, whose tape gave the distance `d` there, `tol` the
+/// distance below which it is on a surface: the unsigned distance shows no sign change where
+/// a step crosses a surface, and the tape's `f32` distance may be off by its rounding (a
+/// sphere of radius 3e3 rounds by 2e-4, more than the epsilon) or by the cell's `slack`
+/// (`Cell::slack`, far from the origin). Less the slack, it is a lower bound of the true
+/// distance; while that keeps `NEAR` epsilons clear of a surface it is the step, and nearer
+/// the distance in `f64` decides (`Escape::distance`). Trusting the tape there ended rays
+/// that far from a surface, or let them through it. Crawling rays leap (`crawl`) here too.
+fn careful(
+    escape: &Escape,
+    st: &mut State,
+    r: &Ray,
+    (d, tol, slack): (f64, f64, f64),
+    proofs: &mut Proofs,
+) -> Step {
+    let lower = d - slack;
+    let d = if lower >= NEAR * tol {
+        lower
+    } else {
+        let (exact, near) = escape.distance(r.o + r.d * st.t, true, proofs);
+        if exact < tol && near >= 0.0 {
+            return Step::Hit {
+                t: st.t,
+                object: near as usize,
+            };
+        }
+        exact
+    };
+    crawl(escape, r, st, d, proofs).unwrap_or(Step::Advance(d))
+}
+
+/// How many epsilons from a surface a ray inside objects stops trusting its tape (`careful`).
+const NEAR: f64 = 16.0;
+
 /// Steps after which a ray counts as crawling: sphere steps shrink beside a surface the ray
 /// grazes or closes in on at a shallow angle, and it may take thousands of them.
-const CRAWL: u32 = 32;
+const CRAWL: u32 = 128;
 /// A crawling ray's first leap, in distances at its point.
 const LEAP: f64 = 16.0;
+/// The shortest leap worth a proof, in distances: a proof costs tens of tape steps.
+const MIN_LEAP: f64 = 8.0;
 
-/// What a crawling ray at `t` (where no relaxed step is pending, the tape's distance there `d`)
-/// does instead of its sphere step, if anything. It leaps over the stretch ahead that
-/// provably meets no surface (`Escape::clear`) if a try finds one longer than the step it
-/// would take. A try aims at 0.9 of where the distance, falling as it did since the last
-/// point, would reach zero (a plane met at a shallow angle), at most four times the last
-/// leap (or `LEAP` distances at first); a failed try quarters the next. A ray that cannot
-/// leap is near a surface, where the tape's `f32` distance may be all rounding (far from the
-/// origin): it ends on, or steps by, the distance in `f64` (`Escape::distance`) where that is
-/// nearer.
-fn crawl(
-    escape: &Escape,
-    r: &Ray,
-    st: &mut State,
-    (d, tol): (f64, f64),
-    proofs: &mut Proofs,
-) -> Option<Step> {
+/// A crawling ray's leap at `t` (where no relaxed step is pending, its distance there `d`): over
+/// the stretch ahead that provably meets no surface (`Escape::clear`), if a try finds one
+/// longer than the step it would take. A try aims at 0.9 of where the distance, falling as it
+/// did since the last point, would reach zero (a plane met at a shallow angle), at most four
+/// times the last leap (or `LEAP` distances at first); a failed try quarters the next, and
+/// the ray waits twice as many steps as after the last failure before it
+/// tries again: in a lattice's channels, where the bounds are loose, every try fails.
+fn crawl(escape: &Escape, r: &Ray, st: &mut State, d: f64, proofs: &mut Proofs) -> Option<Step> {
     let last = std::mem::replace(&mut st.last, (st.t, d));
-    if st.steps < CRAWL {
+    if st.steps < CRAWL.max(st.leap_at) {
         return None;
     }
     if st.leap <= 0.0 {
@@ -580,25 +625,21 @@ fn crawl(
         f64::INFINITY
     };
     let len = aim.min(st.leap).min(r.tmax - st.t);
-    let p = r.o + r.d * st.t;
-    if len > 2.0 * d {
-        if escape.clear(p, r.d, len, r.interior, proofs) {
-            st.leap = 4.0 * len;
-            return Some(Step::Advance(len));
-        }
-        st.leap = if len > 8.0 * d { len / 4.0 } else { 0.0 };
+    if !(len > MIN_LEAP * d) {
+        return None;
     }
-    let (exact, near) = escape.distance(p, r.interior, proofs);
-    if exact < tol && near >= 0.0 {
-        Some(Step::Hit {
-            t: st.t,
-            object: near as usize,
-        })
-    } else if exact < d {
-        Some(Step::Advance(exact))
+    if escape.clear(r.o + r.d * st.t, r.d, len, r.interior, proofs) {
+        (st.leap, st.wait) = (4.0 * len, 0);
+        return Some(Step::Advance(len));
+    }
+    st.leap = if len > 4.0 * MIN_LEAP * d {
+        len / 4.0
     } else {
-        None
-    }
+        0.0
+    };
+    st.wait = (2 * st.wait).max(1);
+    st.leap_at = st.steps + st.wait;
+    None
 }
 
 /// Apply one step's outcome to ray `k`: record its hit, or move it on and keep it marching

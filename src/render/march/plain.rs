@@ -4,10 +4,12 @@
 //! whole-tape marcher, `--marcher whole`) steps are over-relaxed and checked as the cells'
 //! are (`unrelax`); without it (`--marcher plain`) each step is the distance itself: the
 //! baseline the other marchers are timed and tested against. A ray sees the sky on the same
-//! proof as there (`Escape::escapes`), retried as there (`retry`), and a crawling ray leaps
-//! as there (`crawl`).
+//! proof as there (`Escape::escapes`), retried as there (`retry`), a crawling ray leaps
+//! as there (`crawl`), and a ray inside objects steps as carefully as there (`careful`).
 
-use super::{Field, Hit, Limits, Marcher, Ray, State, Step, crawl, finish, retry, unrelax};
+use super::{
+    Field, Hit, Limits, Marcher, Ray, State, Step, careful, crawl, finish, retry, unrelax,
+};
 use crate::vm::cells::epsilon_at;
 use crate::vm::escape::Proofs;
 
@@ -54,12 +56,14 @@ impl Marcher {
                     let tol = epsilon_at(r.o + r.d * st.t, limits.epsilon);
                     let step = if let Some(back) = unrelax(st, d) {
                         back
+                    } else if interior {
+                        careful(field.escape, st, r, (d, tol, 0.0), &mut self.proofs)
                     } else if d < tol && near >= 0.0 {
                         Step::Hit {
                             t: st.t,
                             object: near as usize,
                         }
-                    } else if let Some(s) = crawl(field.escape, r, st, (d, tol), &mut self.proofs) {
+                    } else if let Some(s) = crawl(field.escape, r, st, d, &mut self.proofs) {
                         s
                     } else {
                         // A relaxed step is only verified at the next point, so none may end
