@@ -290,7 +290,7 @@ fn cell(n: Node, f: &[Line], len: f64) -> Option<[Line; 8]> {
     let g = |x: Id| f[x.0 as usize];
     let ends = |l: Line| {
         (l.base.is_point() && l.slope.is_finite() && len.is_finite())
-            .then(|| (l.base.lo, l.base.lo + l.slope * len))
+            .then_some((l.base.lo, l.base.lo + l.slope * len))
     };
     let mut out = [Line::point(0.0); 8];
     match n {

@@ -625,7 +625,8 @@ fn crawl(escape: &Escape, r: &Ray, st: &mut State, d: f64, proofs: &mut Proofs) 
         f64::INFINITY
     };
     let len = aim.min(st.leap).min(r.tmax - st.t);
-    if !(len > MIN_LEAP * d) {
+    // (NaN, where the distance is, fails too.)
+    if len.partial_cmp(&(MIN_LEAP * d)) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     if escape.clear(r.o + r.d * st.t, r.d, len, r.interior, proofs) {
