@@ -11,7 +11,10 @@
 //! (Bán and Valasek 2023, "Automatic Step Size Relaxation in Sphere Tracing"): rays leaving
 //! a surface, where the distance grows, take long steps, and rays closing in on one plain
 //! ones. A ray sees the sky only when it provably leaves every object (`Escape::escapes`),
-//! never by travelling far (`vm::escape`). `--marcher whole` marches the whole tape with the
+//! never by travelling far (`vm::escape`). A ray that crawls beside a surface leaps over
+//! what it proves clear (`crawl`), and rays inside objects, whose unsigned `f32` distance
+//! shows no sign change where a step crosses a surface, decide near one in `f64`
+//! (`careful`). `--marcher whole` marches the whole tape with the
 //! same relaxed steps, and `--marcher plain` with plain ones (`plain`): the baseline the
 //! others are measured and tested against.
 
