@@ -524,16 +524,10 @@ impl Cell {
         }
     }
 
-    /// How much more than the epsilon at `p` an interior ray's distance from the cell's
-    /// interior tape may be off (its rounding, where that exceeds the epsilon: far from the
-    /// origin), 0 where the tape resolves the epsilon.
-    pub fn slack(&self, p: DVec4, epsilon: f64) -> f64 {
-        let e = epsilon_at(p - self.origin, epsilon);
-        if self.rounding.is_finite() && self.rounding > e {
-            self.rounding
-        } else {
-            0.0
-        }
+    /// How far the interior tape's distance may be from the true one in the cell (a bound of
+    /// its `f32` rounding; infinite where unknown, as outside the cube).
+    pub fn slack(&self) -> f64 {
+        self.rounding
     }
 
     /// Which cell this is, the same in every run (its depth and corner), for ordering work

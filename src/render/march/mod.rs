@@ -294,14 +294,10 @@ impl Marcher {
                 };
                 let tol = cell.epsilon(p, limits.epsilon, r.interior);
                 st.tol = tol;
-                // Where the interior tape may be off by more than the epsilon, rays inside
-                // objects still end within the epsilon, in `f64` (`careful`).
-                st.slack = if r.interior {
-                    cell.slack(p, limits.epsilon)
-                } else {
-                    0.0
-                };
-                if st.slack > 0.0 {
+                // Rays inside objects end within the epsilon, whatever the interior tape's
+                // rounding (`careful`).
+                if r.interior {
+                    st.slack = cell.slack();
                     st.tol = epsilon_at(p - cell.origin, limits.epsilon);
                 }
                 // Nothing in the cell: cross it, and a sphere step beyond, since the bound
@@ -566,12 +562,13 @@ fn retry(t: f64) -> f64 {
 
 /// The step of a ray inside objects at `t`, whose tape gave the distance `d` there, `tol` the
 /// distance below which it is on a surface: the unsigned distance shows no sign change where
-/// a step crosses a surface, and the tape's `f32` distance may be off by its rounding (a
-/// sphere of radius 3e3 rounds by 2e-4, more than the epsilon) or by the cell's `slack`
-/// (`Cell::slack`, far from the origin). Less the slack, it is a lower bound of the true
-/// distance; while that keeps `NEAR` epsilons clear of a surface it is the step, and nearer
-/// the distance in `f64` decides (`Escape::distance`). Trusting the tape there ended rays
-/// that far from a surface, or let them through it. Crawling rays leap (`crawl`) here too.
+/// a step crosses a surface, and the tape's `f32` distance may be off by more than the epsilon
+/// (a hypersphere of radius 3e3 rounds by 2e-4; far from the origin, more). Where the cell
+/// bounds that rounding (`slack`, `Cell::slack`), the tape's distance less it is a lower bound
+/// of the true one; where nothing does (outside the cells' cube, or on the whole tape), the
+/// tape is trusted only `NEAR` epsilons from a surface. Nearer, the distance in `f64` decides
+/// (`Escape::distance`). Trusting the tape there ended rays that far from a surface, or let
+/// them through it. Crawling rays leap (`crawl`) here too.
 fn careful(
     escape: &Escape,
     st: &mut State,
@@ -579,8 +576,12 @@ fn careful(
     (d, tol, slack): (f64, f64, f64),
     proofs: &mut Proofs,
 ) -> Step {
-    let lower = d - slack;
-    let d = if lower >= NEAR * tol {
+    let (lower, clear) = if slack.is_finite() {
+        (d - slack, tol)
+    } else {
+        (d, NEAR * tol)
+    };
+    let d = if lower >= clear {
         lower
     } else {
         let (exact, near) = escape.distance(r.o + r.d * st.t, true, proofs);
@@ -595,7 +596,8 @@ fn careful(
     crawl(escape, r, st, d, proofs).unwrap_or(Step::Advance(d))
 }
 
-/// How many epsilons from a surface a ray inside objects stops trusting its tape (`careful`).
+/// How many epsilons from a surface a ray inside objects stops trusting a tape whose rounding
+/// nothing bounds (`careful`).
 const NEAR: f64 = 16.0;
 
 /// Steps after which a ray counts as crawling: sphere steps shrink beside a surface the ray

@@ -57,7 +57,13 @@ impl Marcher {
                     let step = if let Some(back) = unrelax(st, d) {
                         back
                     } else if interior {
-                        careful(field.escape, st, r, (d, tol, 0.0), &mut self.proofs)
+                        careful(
+                            field.escape,
+                            st,
+                            r,
+                            (d, tol, f64::INFINITY),
+                            &mut self.proofs,
+                        )
                     } else if d < tol && near >= 0.0 {
                         Step::Hit {
                             t: st.t,
