@@ -396,13 +396,10 @@ impl Intervals {
         for i in 0..g.len() {
             let n = g.get(Id(i as u32));
             let outs = iv.outs.len();
-            let exact = |x: Id| {
-                let at = tuple_start[x.0 as usize];
-                (at != u32::MAX).then_some(at as usize)
-            };
+            // A projection of a tuple followed exactly is its output's line.
             let l = match n {
-                Node::Proj(t, j) if exact(t).is_some() => {
-                    Some(tuples[exact(t).unwrap() + j as usize])
+                Node::Proj(t, j) if tuple_start[t.0 as usize] != u32::MAX => {
+                    Some(tuples[tuple_start[t.0 as usize] as usize + j as usize])
                 }
                 _ => line(n, lines, o, d, len),
             };

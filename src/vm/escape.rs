@@ -4,7 +4,7 @@
 //! stretch of a ray meets no surface, which lets a ray crawling beside one leap ahead
 //! (`Escape::clear`).
 
-use crate::ir::interval::{Along, Intervals};
+use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id};
 use glam::DVec4;
 
@@ -17,8 +17,9 @@ pub struct Escape {
     graph: Graph,
     roots: Vec<Id>,
     whole: Graph,
-    /// The distance and nearest object outside objects, and inside them.
-    distances: [Option<(Id, Id)>; 2],
+    /// The distance and nearest object in `whole`, outside objects and inside them.
+    scene: (Id, Id),
+    interior: Option<(Id, Id)>,
 }
 
 impl Escape {
@@ -46,7 +47,8 @@ impl Escape {
             graph,
             roots: unbounded.iter().map(|r| map[r.0 as usize]).collect(),
             whole,
-            distances: [Some(at(scene)), interior.map(at)],
+            scene: at(scene),
+            interior: interior.map(at),
         }
     }
 
@@ -54,16 +56,8 @@ impl Escape {
     /// `f64`, and the nearest object's index (-1 for none): the bounds of a stretch of length
     /// zero, where every bound is a point.
     pub fn distance(&self, p: DVec4, interior: bool, proofs: &mut Proofs) -> (f64, f64) {
-        let (root, near) = self.root(interior);
-        let iv = Intervals::along(&mut proofs.along, &self.whole, p.to_array(), [0.0; 4], 0.0);
-        proofs.bounded += self.whole.len() as u64;
-        (iv.get(root).lo, iv.get(near).lo)
-    }
-
-    fn root(&self, interior: bool) -> (Id, Id) {
-        (self.distances[interior as usize])
-            .or(self.distances[0])
-            .expect("the scene's distance")
+        let (d, near) = self.along(p, DVec4::ZERO, 0.0, interior, proofs);
+        (d.lo, near.lo)
     }
 
     /// Whether the stretch of `len` from `p` along `d` provably meets no surface: the
@@ -72,16 +66,20 @@ impl Escape {
     /// crawling beside one (grazing it, or closing in at a shallow angle) can leap ahead to
     /// just short of where it meets it.
     pub fn clear(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> bool {
-        let (root, _) = self.root(interior);
-        let iv = Intervals::along(
-            &mut proofs.along,
-            &self.whole,
-            p.to_array(),
-            d.to_array(),
-            len,
-        );
+        self.along(p, d, len, interior, proofs).0.lo > 0.0
+    }
+
+    /// Bounds of the scene's (or interior) distance and nearest object over the stretch of
+    /// `len` from `p` along `d`.
+    fn along(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> (I, I) {
+        let (root, near) = match (interior, self.interior) {
+            (true, Some(i)) => i,
+            _ => self.scene,
+        };
+        let (p, d) = (p.to_array(), d.to_array());
+        let iv = Intervals::along(&mut proofs.along, &self.whole, p, d, len);
         proofs.bounded += self.whole.len() as u64;
-        iv.get(root).lo > 0.0
+        (iv.get(root), iv.get(near))
     }
 
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box

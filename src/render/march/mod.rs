@@ -293,13 +293,13 @@ impl Marcher {
                     f64::INFINITY
                 };
                 let tol = cell.epsilon(p, limits.epsilon, r.interior);
-                st.tol = tol;
                 // Rays inside objects end within the epsilon, whatever the interior tape's
                 // rounding (`careful`).
-                if r.interior {
-                    st.slack = cell.slack();
-                    st.tol = epsilon_at(p - cell.origin, limits.epsilon);
-                }
+                (st.tol, st.slack) = if r.interior {
+                    (epsilon_at(p - cell.origin, limits.epsilon), cell.slack())
+                } else {
+                    (tol, 0.0)
+                };
                 // Nothing in the cell: cross it, and a sphere step beyond, since the bound
                 // holds on the cell's sides too; short of the sphere by the tolerance, since
                 // a tight bound (a floor parallel to the cell) puts its edge on the surface,
