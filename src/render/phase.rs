@@ -122,8 +122,7 @@ impl HenyeyGreenstein {
         let s = (1.0 - g * g) / (1.0 - g + 2.0 * g * xi);
         let mu = ((1.0 + g * g - s * s) / (2.0 * g)).clamp(-1.0, 1.0);
         safeguarded_newton(
-            |theta| self.theta_cdf(theta) - xi,
-            |theta| self.theta_pdf(theta),
+            |theta| (self.theta_cdf(theta) - xi, self.theta_pdf(theta)),
             mu.acos(),
             (0.0, PI),
             1e-13,

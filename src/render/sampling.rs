@@ -146,23 +146,22 @@ impl Frame {
 
 /// Solves `f(x) = 0` for an increasing `f` on `[lo, hi]` by Newton's method from `x`, kept in a
 /// shrinking bisection bracket: a step that leaves the bracket (or meets a flat stretch where
-/// the derivative `df` vanishes) is replaced by bisection. Stops when a step or the bracket is
-/// below `tol`.
+/// the derivative vanishes) is replaced by bisection. `f_df` gives `f` and its derivative at
+/// once (they share their trigonometry). Stops when a step or the bracket is below `tol`.
 pub fn safeguarded_newton(
-    f: impl Fn(f64) -> f64,
-    df: impl Fn(f64) -> f64,
+    f_df: impl Fn(f64) -> (f64, f64),
     mut x: f64,
     (mut lo, mut hi): (f64, f64),
     tol: f64,
 ) -> f64 {
     for _ in 0..100 {
-        let fx = f(x);
+        let (fx, dfx) = f_df(x);
         if fx > 0.0 {
             hi = x;
         } else {
             lo = x;
         }
-        let newton = x - fx / df(x);
+        let newton = x - fx / dfx;
         let next = if newton > lo && newton < hi {
             newton
         } else {
