@@ -162,6 +162,11 @@ pub fn safeguarded_newton(
             lo = x;
         }
         let newton = x - fx / dfx;
+        // Converged: a Newton step this short would otherwise fail the strict bracket test
+        // below (a zero step lands on `lo`) and start bisecting away from the root.
+        if (newton - x).abs() <= tol {
+            return newton.clamp(lo, hi);
+        }
         let next = if newton > lo && newton < hi {
             newton
         } else {
