@@ -170,6 +170,54 @@ pub struct Along {
     tuple_start: Vec<u32>,
 }
 
+impl Along {
+    /// Where the stretch last bounded (`Intervals::along` over `len` on `g`) crosses a side of
+    /// a tiling's cell, in order, into `out`: the first `most` of them, and `len` after them
+    /// unless there were more. Bounded piece by piece between them, each piece lies in one cell
+    /// of every tiling, where `cell` follows it exactly. False, leaving `out` empty, where a
+    /// tiling's operands are not lines through points along the stretch, or it crosses no side.
+    pub fn crossings(&self, g: &Graph, len: f64, most: usize, out: &mut Vec<f64>) -> bool {
+        out.clear();
+        let line = |x: Id| {
+            let l = self.lines[x.0 as usize];
+            (l.base.is_point() && l.slope.is_finite()).then_some((l.base.lo, l.slope))
+        };
+        for i in 0..g.len() {
+            match g.get(Id(i as u32)) {
+                Node::D4(v) => {
+                    let Some(v) = v.iter().map(|&x| line(x)).collect::<Option<Vec<_>>>() else {
+                        out.clear();
+                        return false;
+                    };
+                    let base = std::array::from_fn(|a| v[a].0);
+                    let slope = std::array::from_fn(|a| v[a].1);
+                    d4_crossings(base, slope, len, most + 1, out);
+                }
+                Node::Rep(x, l) => {
+                    let Some((base, slope)) = line(x) else {
+                        out.clear();
+                        return false;
+                    };
+                    rep_crossings(base, slope, l.get(), len, most + 1, out);
+                }
+                _ => {}
+            }
+        }
+        if out.is_empty() || !len.is_finite() {
+            out.clear();
+            return false;
+        }
+        out.sort_by(f64::total_cmp);
+        out.dedup();
+        if out.len() > most {
+            out.truncate(most);
+        } else {
+            out.push(len);
+        }
+        true
+    }
+}
+
 /// A node's value along a ray as `base + slope * s` for every `s` in `0..=len` (the distance
 /// from the ray's start; `len` may be infinite): exact for the linear parts of a graph
 /// (planes, turned and moved points).
@@ -283,9 +331,16 @@ fn pick(min: bool, a: Line, b: Line, margin: f64, len: f64) -> Option<Line> {
     Some(if min { lo } else { hi })
 }
 
+/// How far outside a tiling's cell (in cell units) an end of a stretch may lie and still count
+/// as in it: a stretch split at the cells' sides (`Along::crossings`) ends on one, where
+/// rounding may put it either way; a tiled field that is continuous across the side (its
+/// pieces fit in their cells) moves by no more than this there.
+const SIDE: f64 = 1e-9;
+
 /// The outputs of a tiling's node (`D4`, `Rep`) as lines, where its operands are lines through
-/// points and both ends of the stretch fall in one cell of the tiling: the cells are convex, so
-/// the whole stretch is in it, and the offset from its centre is the operand less a constant.
+/// points and both ends of the stretch fall in the cell of its midpoint (to within `SIDE`): the
+/// cells are convex, so the whole stretch is in it, and the offset from its centre is the
+/// operand less a constant.
 fn cell(n: Node, f: &[Line], len: f64) -> Option<[Line; 8]> {
     let g = |x: Id| f[x.0 as usize];
     let ends = |l: Line| {
@@ -297,34 +352,123 @@ fn cell(n: Node, f: &[Line], len: f64) -> Option<[Line; 8]> {
         Node::D4(v) => {
             let v = v.map(g);
             let e: [(f64, f64); 4] = [ends(v[0])?, ends(v[1])?, ends(v[2])?, ends(v[3])?];
-            let (a, b) = (k::d4(e.map(|x| x.0)), k::d4(e.map(|x| x.1)));
-            if a[4..] != b[4..] {
+            let mid = k::d4(e.map(|x| 0.5 * (x.0 + x.1)));
+            let c: [f64; 4] = std::array::from_fn(|i| mid[4 + i]);
+            if !(d4_holds(c, e.map(|x| x.0)) && d4_holds(c, e.map(|x| x.1))) {
                 return None;
             }
             for i in 0..4 {
                 out[i] = Line {
-                    base: I::point(a[i]),
+                    base: I::point(e[i].0 - c[i]),
                     slope: v[i].slope,
                 };
-                out[4 + i] = Line::point(a[4 + i]);
+                out[4 + i] = Line::point(c[i]);
             }
         }
         Node::Rep(x, l) => {
             let (x, l) = (g(x), l.get());
             let (s, e) = ends(x)?;
-            let (a, b) = (k::rep(s, l), k::rep(e, l));
-            if a[1] != b[1] {
+            let c = k::rep(0.5 * (s + e), l)[1];
+            let holds =
+                |x: f64| (c >= l || x - c <= 0.5 + SIDE) && (c <= -l || c - x <= 0.5 + SIDE);
+            if !(holds(s) && holds(e)) {
                 return None;
             }
             out[0] = Line {
-                base: I::point(a[0]),
+                base: I::point(s - c),
                 slope: x.slope,
             };
-            out[1] = Line::point(a[1]);
+            out[1] = Line::point(c);
         }
         _ => return None,
     }
     Some(out)
+}
+
+/// Whether `x` lies in the cell of D4 point `c` (to within `SIDE`): the cell (a 24-cell) is
+/// bounded by the planes `(x - c) . v = 1` of the 24 shortest vectors `v = +-e_i +-e_j`, so `x`
+/// is in it when no two coordinates of `x - c` sum to more than 1 in magnitude.
+fn d4_holds(c: [f64; 4], x: [f64; 4]) -> bool {
+    let (mut first, mut second) = (0.0f64, 0.0f64);
+    for i in 0..4 {
+        let a = (x[i] - c[i]).abs();
+        if a > first {
+            (first, second) = (a, first);
+        } else if a > second {
+            second = a;
+        }
+    }
+    first + second <= 1.0 + SIDE
+}
+
+/// The D4 shortest vectors `+-e_i +-e_j` (as `(i, j, sign_i, sign_j)`).
+const D4_SHORTEST: [(usize, usize, f64, f64); 24] = {
+    let mut out = [(0, 0, 0.0, 0.0); 24];
+    let mut n = 0;
+    let mut i = 0;
+    while i < 4 {
+        let mut j = i + 1;
+        while j < 4 {
+            out[n] = (i, j, 1.0, 1.0);
+            out[n + 1] = (i, j, 1.0, -1.0);
+            out[n + 2] = (i, j, -1.0, 1.0);
+            out[n + 3] = (i, j, -1.0, -1.0);
+            n += 4;
+            j += 1;
+        }
+        i += 1;
+    }
+    out
+};
+
+/// Where the line `base + slope * s` (in lattice units) crosses from one D4 cell into the next,
+/// for `s` in `(0, len)`: from the cell of `base`, through the side it leaves by, to the cell
+/// beyond it; at most `most` crossings, pushed onto `out`. Only candidates: `cell` checks each
+/// piece between them, so a corner crossed into the wrong neighbour costs a loose bound, never
+/// a wrong one.
+fn d4_crossings(base: [f64; 4], slope: [f64; 4], len: f64, most: usize, out: &mut Vec<f64>) {
+    let at = k::d4(base);
+    let mut c: [f64; 4] = std::array::from_fn(|i| at[4 + i]);
+    let mut s = 0.0f64;
+    for _ in 0..most {
+        let y: [f64; 4] = std::array::from_fn(|i| base[i] - c[i]);
+        let mut exit = (f64::INFINITY, 0);
+        for (k, &(i, j, a, b)) in D4_SHORTEST.iter().enumerate() {
+            let rate = a * slope[i] + b * slope[j];
+            if rate > 0.0 {
+                let t = (1.0 - a * y[i] - b * y[j]) / rate;
+                if t < exit.0 {
+                    exit = (t, k);
+                }
+            }
+        }
+        if !(exit.0 < len) {
+            break;
+        }
+        s = s.max(exit.0);
+        out.push(s);
+        let (i, j, a, b) = D4_SHORTEST[exit.1];
+        (c[i], c[j]) = (c[i] + a, c[j] + b);
+    }
+}
+
+/// Where the line `base + slope * s` (in cell units) crosses from one cell of a repetition
+/// with cells `-l..=l` into the next, for `s` in `(0, len)`; at most `most`, onto `out`.
+fn rep_crossings(base: f64, slope: f64, l: f64, len: f64, most: usize, out: &mut Vec<f64>) {
+    let mut c = k::rep(base, l)[1];
+    let dir = if slope > 0.0 { 1.0 } else { -1.0 };
+    for _ in 0..most {
+        // The last cell on this side reaches to infinity.
+        if slope == 0.0 || c * dir >= l {
+            break;
+        }
+        let t = (c + 0.5 * dir - base) / slope;
+        if !(t < len) {
+            break;
+        }
+        out.push(t.max(0.0));
+        c += dir;
+    }
 }
 
 /// The values of `|v + offset| - sub` (a `Length` node's `r`) for `s` in `0..=len` when every

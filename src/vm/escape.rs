@@ -60,13 +60,32 @@ impl Escape {
         (d.lo, near.lo)
     }
 
-    /// Whether the stretch of `len` from `p` along `d` provably meets no surface: the
-    /// scene's distance (for a ray inside objects, the interior one, unsigned) stays above
-    /// zero all along it (`Intervals::along`). Exact for planes and spheres, so a ray
-    /// crawling beside one (grazing it, or closing in at a shallow angle) can leap ahead to
-    /// just short of where it meets it.
-    pub fn clear(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> bool {
-        self.along(p, d, len, interior, proofs).0.lo > 0.0
+    /// How far along the stretch of `len` from `p` along `d` the ray provably meets no
+    /// surface (`len` for all of it, 0 for none): the scene's distance (for a ray inside
+    /// objects, the interior one, unsigned) stays above zero there (`Intervals::along`). Exact
+    /// for planes and spheres, so a ray crawling beside one (grazing it, or closing in at a
+    /// shallow angle) can leap ahead to just short of where it meets it. Where the stretch
+    /// crosses a tiling's cells, the bounds over all of it are loose (the offset from the
+    /// cell's centre jumps at each side): it is split at the sides (at most `PIECES` pieces)
+    /// and bounded piece by piece, each exact in its cell, as far as they hold: a ray in a
+    /// lattice's channel, far from every piece, leaps across many cells at once.
+    pub fn clear(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> f64 {
+        if self.along(p, d, len, interior, proofs).0.lo > 0.0 {
+            return len;
+        }
+        let mut cuts = std::mem::take(&mut proofs.cuts);
+        let mut clear = 0.0;
+        if proofs.along.crossings(&self.whole, len, PIECES, &mut cuts) {
+            for &end in &cuts {
+                let from = p + d * clear;
+                if self.along(from, d, end - clear, interior, proofs).0.lo <= 0.0 {
+                    break;
+                }
+                clear = end;
+            }
+        }
+        proofs.cuts = cuts;
+        clear
     }
 
     /// Bounds of the scene's (or interior) distance and nearest object over the stretch of
@@ -140,9 +159,15 @@ impl Escape {
 #[derive(Default)]
 pub struct Proofs {
     along: Along,
+    /// Where a stretch crosses tilings' cells (`Escape::clear`).
+    cuts: Vec<f64>,
     /// Graph nodes bounded to prove that rays escape, for the statistics.
     pub bounded: u64,
 }
+
+/// The most pieces a stretch is split into at tilings' cells (`Escape::clear`): each costs a
+/// pass over the scene's graph.
+const PIECES: usize = 32;
 
 /// Where the ray from `p` along `d` first meets the box `lo..hi`, if it does (slab test,
 /// `t >= 0`; 0 when `p` is inside).

@@ -608,13 +608,13 @@ const LEAP: f64 = 16.0;
 /// The shortest leap worth a proof, in distances: a proof costs tens of tape steps.
 const MIN_LEAP: f64 = 8.0;
 
-/// A crawling ray's leap at `t` (where no relaxed step is pending, its distance there `d`): over
-/// the stretch ahead that provably meets no surface (`Escape::clear`), if a try finds one
-/// longer than the step it would take. A try aims at 0.9 of where the distance, falling as it
-/// did since the last point, would reach zero (a plane met at a shallow angle), at most four
-/// times the last leap (or `LEAP` distances at first); a failed try quarters the next, and
-/// the ray waits twice as many steps as after the last failure before it
-/// tries again: in a lattice's channels, where the bounds are loose, every try fails.
+/// A crawling ray's leap at `t` (where no relaxed step is pending, its distance there `d`): as
+/// far along the stretch ahead as it provably meets no surface (`Escape::clear`; in a
+/// lattice's channels, cell by cell), if that is at least `MIN_LEAP` distances. A try aims at
+/// 0.9 of where the distance, falling as it did since the last point, would reach zero (a
+/// plane met at a shallow angle), at most four times the last leap (or `LEAP` distances at
+/// first); a failed try quarters the next, and the ray waits twice as many steps as after
+/// the last failure before it tries again.
 fn crawl(escape: &Escape, r: &Ray, st: &mut State, d: f64, proofs: &mut Proofs) -> Option<Step> {
     let last = std::mem::replace(&mut st.last, (st.t, d));
     if st.steps < CRAWL.max(st.leap_at) {
@@ -634,9 +634,10 @@ fn crawl(escape: &Escape, r: &Ray, st: &mut State, d: f64, proofs: &mut Proofs) 
     if len.partial_cmp(&(MIN_LEAP * d)) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
-    if escape.clear(r.o + r.d * st.t, r.d, len, r.interior, proofs) {
-        (st.leap, st.wait) = (4.0 * len, 0);
-        return Some(Step::Advance(len));
+    let clear = escape.clear(r.o + r.d * st.t, r.d, len, r.interior, proofs);
+    if clear > MIN_LEAP * d {
+        (st.leap, st.wait) = (4.0 * clear, 0);
+        return Some(Step::Advance(clear));
     }
     st.leap = if len > 4.0 * MIN_LEAP * d {
         len / 4.0
