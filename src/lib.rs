@@ -69,6 +69,7 @@ pub mod farm;
 pub mod film;
 #[doc(hidden)]
 pub mod generate;
+pub mod image;
 #[doc(hidden)]
 pub mod ir;
 #[doc(hidden)]

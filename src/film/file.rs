@@ -246,8 +246,7 @@ mod tests {
     fn a_plain_exr_is_not_a_film() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("plain.exr");
-        let img = crate::output::HdrImage::new(2, 2);
-        crate::output::write(&path, &[img], &Default::default()).unwrap();
+        exr::prelude::write_rgb_file(&path, 2, 2, |_, _| (0.0f32, 0.0f32, 0.0f32)).unwrap();
         let e = FilmFile::read(&path).unwrap_err().to_string();
         assert!(e.contains("is not a hyperslice film"), "{e}");
         let junk = dir.path().join("junk.exr");
