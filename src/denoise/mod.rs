@@ -20,8 +20,9 @@ use crate::film::Film;
 pub use atrous::{AtrousOptions, Scales, Temporal};
 
 /// The denoiser a render uses: the language's `denoise` setting, the CLI's `--denoise` and
-/// the bench's families all name this one enum.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+/// the bench's families all name this one enum. Film headers store it by [`Denoise::name`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum Denoise {
     /// Leave every colour bit-identical.
     None,

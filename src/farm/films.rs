@@ -72,7 +72,7 @@ impl FilmDir {
             complete: false,
             stats: Default::default(),
             part,
-            denoise: r.denoise.name().to_string(),
+            denoise: r.denoise,
             exposure: r.exposure,
             fps: r.fps,
         };
