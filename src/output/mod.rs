@@ -37,9 +37,14 @@ impl Format {
             Some("gif") => Ok(Format::Gif),
             Some("png") => Ok(Format::Png),
             Some("exr") => Ok(Format::Exr),
-            _ => Err(OutputError::UnknownFormat {
-                path: path.to_path_buf(),
-                extension: ext,
+            _ => Err(match ext {
+                Some(extension) => OutputError::UnknownFormat {
+                    path: path.to_path_buf(),
+                    extension,
+                },
+                None => OutputError::NoExtension {
+                    path: path.to_path_buf(),
+                },
             }),
         }
     }
@@ -94,30 +99,42 @@ pub struct Written {
 }
 
 /// Why output could not be written.
-#[derive(Debug)]
+#[derive(Debug, thiserror::Error)]
 pub enum OutputError {
-    /// The extension is missing or not one of .gif, .png, .exr.
-    UnknownFormat {
-        path: PathBuf,
-        extension: Option<String>,
-    },
+    /// The extension is not one of .gif, .png, .exr.
+    #[error("unknown output format `.{extension}` (expected .gif, .png or .exr)")]
+    UnknownFormat { path: PathBuf, extension: String },
+    /// The path has no extension.
+    #[error("output file `{}` has no extension (expected .gif, .png or .exr)", .path.display())]
+    NoExtension { path: PathBuf },
     /// The directory the file would go in does not exist.
+    #[error("cannot write `{}`: directory `{}` does not exist", .path.display(), show_dir(.dir))]
     MissingDirectory { path: PathBuf, dir: PathBuf },
     /// The "directory" the file would go in is not a directory.
+    #[error("cannot write `{}`: `{}` is not a directory", .path.display(), show_dir(.dir))]
     NotADirectory { path: PathBuf, dir: PathBuf },
     /// A file cannot be created in the directory.
+    #[error(
+        "cannot write `{}`: directory `{}` is not writable ({source})",
+        .path.display(),
+        show_dir(.dir)
+    )]
     DirectoryNotWritable {
         path: PathBuf,
         dir: PathBuf,
         source: io::Error,
     },
     /// The output path is an existing directory.
+    #[error("cannot write `{}`: it is a directory", .path.display())]
     IsDirectory { path: PathBuf },
     /// The output path is the scene file being rendered.
+    #[error("`{}` is the scene file; refusing to overwrite it", .path.display())]
     IsInput { path: PathBuf },
     /// No frames were given.
+    #[error("cannot write `{}`: there are no frames", .path.display())]
     NoFrames { path: PathBuf },
     /// A frame has a zero width or height.
+    #[error("cannot write `{}`: frame {frame} is empty ({width}x{height})", .path.display())]
     EmptyFrame {
         path: PathBuf,
         frame: usize,
@@ -125,13 +142,28 @@ pub enum OutputError {
         height: usize,
     },
     /// A frame's pixel buffer does not hold `width * height` pixels.
+    #[error(
+        "cannot write `{}`: frame {frame} has {actual} pixels, expected {expected}",
+        .path.display()
+    )]
     BadFrameData {
         path: PathBuf,
         frame: usize,
-        expected: Option<usize>,
+        expected: usize,
         actual: usize,
     },
+    /// A frame's `width * height` overflows `usize`.
+    #[error("cannot write `{}`: frame {frame} is impossibly large", .path.display())]
+    ImpossibleSize { path: PathBuf, frame: usize },
     /// The frames of an animation differ in size.
+    #[error(
+        "cannot write `{}`: frame {frame} is {}x{} but frame 0 is {}x{}",
+        .path.display(),
+        .size.0,
+        .size.1,
+        .first.0,
+        .first.1
+    )]
     MismatchedFrames {
         path: PathBuf,
         frame: usize,
@@ -139,6 +171,10 @@ pub enum OutputError {
         first: (usize, usize),
     },
     /// The frame is larger than the format can store.
+    #[error(
+        "cannot write `{}`: {width}x{height} is too large for {format} (at most {limit} per side)",
+        .path.display()
+    )]
     TooLarge {
         path: PathBuf,
         format: Format,
@@ -147,6 +183,7 @@ pub enum OutputError {
         limit: usize,
     },
     /// Exposure or fps is not a usable number.
+    #[error("cannot write `{}`: invalid {name} {value}", .path.display())]
     InvalidSetting {
         path: PathBuf,
         name: &'static str,
@@ -154,14 +191,17 @@ pub enum OutputError {
     },
     /// A frame was pushed out of order: not after the one before, not straight after it in a
     /// GIF, or a second one into a single file.
+    #[error("cannot write `{}`: frame {frame} cannot follow frame {previous}", .path.display())]
     FrameOrder {
         path: PathBuf,
         frame: usize,
         previous: usize,
     },
     /// Reading or writing failed.
+    #[error("cannot write `{}`: {source}", .path.display())]
     Io { path: PathBuf, source: io::Error },
     /// The encoder failed.
+    #[error("cannot write `{}`: {format} encoding failed: {message}", .path.display())]
     Encode {
         path: PathBuf,
         format: Format,
@@ -175,145 +215,6 @@ fn show_dir(dir: &Path) -> String {
         ".".to_string()
     } else {
         dir.display().to_string()
-    }
-}
-
-impl fmt::Display for OutputError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        use OutputError::*;
-        match self {
-            UnknownFormat {
-                extension: Some(ext),
-                ..
-            } => write!(
-                f,
-                "unknown output format `.{ext}` (expected .gif, .png or .exr)"
-            ),
-            UnknownFormat {
-                path,
-                extension: None,
-            } => write!(
-                f,
-                "output file `{}` has no extension (expected .gif, .png or .exr)",
-                path.display()
-            ),
-            MissingDirectory { path, dir } => write!(
-                f,
-                "cannot write `{}`: directory `{}` does not exist",
-                path.display(),
-                show_dir(dir)
-            ),
-            NotADirectory { path, dir } => write!(
-                f,
-                "cannot write `{}`: `{}` is not a directory",
-                path.display(),
-                show_dir(dir)
-            ),
-            DirectoryNotWritable { path, dir, source } => write!(
-                f,
-                "cannot write `{}`: directory `{}` is not writable ({source})",
-                path.display(),
-                show_dir(dir)
-            ),
-            IsDirectory { path } => {
-                write!(f, "cannot write `{}`: it is a directory", path.display())
-            }
-            IsInput { path } => write!(
-                f,
-                "`{}` is the scene file; refusing to overwrite it",
-                path.display()
-            ),
-            NoFrames { path } => {
-                write!(f, "cannot write `{}`: there are no frames", path.display())
-            }
-            EmptyFrame {
-                path,
-                frame,
-                width,
-                height,
-            } => write!(
-                f,
-                "cannot write `{}`: frame {frame} is empty ({width}x{height})",
-                path.display()
-            ),
-            BadFrameData {
-                path,
-                frame,
-                expected,
-                actual,
-            } => match expected {
-                Some(n) => write!(
-                    f,
-                    "cannot write `{}`: frame {frame} has {actual} pixels, expected {n}",
-                    path.display()
-                ),
-                None => write!(
-                    f,
-                    "cannot write `{}`: frame {frame} is impossibly large",
-                    path.display()
-                ),
-            },
-            MismatchedFrames {
-                path,
-                frame,
-                size,
-                first,
-            } => write!(
-                f,
-                "cannot write `{}`: frame {frame} is {}x{} but frame 0 is {}x{}",
-                path.display(),
-                size.0,
-                size.1,
-                first.0,
-                first.1
-            ),
-            TooLarge {
-                path,
-                format,
-                width,
-                height,
-                limit,
-            } => write!(
-                f,
-                "cannot write `{}`: {width}x{height} is too large for {format} (at most {limit} per side)",
-                path.display()
-            ),
-            InvalidSetting { path, name, value } => write!(
-                f,
-                "cannot write `{}`: invalid {name} {value}",
-                path.display()
-            ),
-            FrameOrder {
-                path,
-                frame,
-                previous,
-            } => write!(
-                f,
-                "cannot write `{}`: frame {frame} cannot follow frame {previous}",
-                path.display()
-            ),
-            Io { path, source } => write!(f, "cannot write `{}`: {source}", path.display()),
-            Encode {
-                path,
-                format,
-                message,
-            } => write!(
-                f,
-                "cannot write `{}`: {format} encoding failed: {message}",
-                path.display()
-            ),
-        }
-    }
-}
-
-impl std::error::Error for OutputError {
-    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
-        match self {
-            OutputError::DirectoryNotWritable { source, .. } | OutputError::Io { source, .. } => {
-                Some(source)
-            }
-            _ => None,
-        }
     }
 }
 
@@ -650,8 +551,10 @@ impl Sink {
                 height: f.height,
             });
         }
-        let expected = f.width.checked_mul(f.height);
-        if expected != Some(f.data.len()) {
+        let Some(expected) = f.width.checked_mul(f.height) else {
+            return Err(OutputError::ImpossibleSize { path, frame: index });
+        };
+        if expected != f.data.len() {
             return Err(OutputError::BadFrameData {
                 path,
                 frame: index,

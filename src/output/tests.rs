@@ -340,7 +340,7 @@ fn write_rejects_bad_frames_and_leaves_nothing() {
         };
         assert!(matches!(
             write(&path, &[overflow], &settings()),
-            Err(OutputError::BadFrameData { expected: None, .. })
+            Err(OutputError::ImpossibleSize { .. })
         ));
         let s = OutputSettings {
             exposure: f64::NAN,
