@@ -18,10 +18,13 @@
 
 pub mod corpus;
 pub mod costs;
+mod error;
 pub mod plot;
 pub mod report;
 
-use crate::error::{Error, Result};
+pub use error::SweepError;
+
+use crate::error::Result;
 use crate::metrics::{self, ImageError};
 use crate::render::driver::{self, Options};
 use crate::render::sampler::SamplerKind;
@@ -412,20 +415,21 @@ pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference> {
             .collect();
         if let Some(missing) = numbered.iter().find(|p| !p.is_file()) {
             return Err(if frames == 1 && !numbered[0].is_file() {
-                Error::ReferenceMissing {
+                SweepError::ReferenceMissing {
                     path: path.to_path_buf(),
                 }
             } else if path.is_file() {
-                Error::ReferenceOneFrame {
+                SweepError::ReferenceOneFrame {
                     path: path.to_path_buf(),
                     frames,
                     numbered: numbered[0].clone(),
                 }
             } else {
-                Error::ReferenceFrameMissing {
+                SweepError::ReferenceFrameMissing {
                     path: missing.clone(),
                 }
-            });
+            }
+            .into());
         }
         numbered
     };
@@ -449,21 +453,22 @@ pub fn load_reference(path: &Path, r: &RenderSettings) -> Result<Reference> {
                 px[pos.y() * *w + pos.x()] = DVec3::new(r as f64, g as f64, b as f64);
             },
         )
-        .map_err(|source| Error::ReferenceUnreadable {
+        .map_err(|source| SweepError::ReferenceUnreadable {
             path: file.clone(),
             source,
         })?;
         let size = image.layer_data.size;
         if (size.width(), size.height()) != (width, height) {
-            return Err(Error::ReferenceSize {
+            return Err(SweepError::ReferenceSize {
                 path: file.clone(),
                 size: (size.width(), size.height()),
                 expected: (width, height),
-            });
+            }
+            .into());
         }
         let pixels = image.layer_data.channel_data.pixels.1;
         if pixels.iter().any(|c| !c.is_finite()) {
-            return Err(Error::ReferenceNotFinite { path: file.clone() });
+            return Err(SweepError::ReferenceNotFinite { path: file.clone() }.into());
         }
         out.push(pixels.into_iter().map(|c| c * scale).collect());
     }
@@ -517,11 +522,12 @@ pub fn measure(
     if (r.width as usize, r.height as usize, r.frames as usize)
         != (reference.width, reference.height, reference.frames.len())
     {
-        return Err(Error::ReferenceMismatch {
+        return Err(SweepError::ReferenceMismatch {
             reference: (reference.width, reference.height, reference.frames.len()),
             config: config.label.clone(),
             renders: (r.width, r.height, r.frames),
-        });
+        }
+        .into());
     }
     let options = Options {
         threads,
@@ -633,7 +639,7 @@ pub fn bench(
     scene.render = opts.settings(&scene.render);
     let configs = plan(&scene.render, opts);
     if configs.is_empty() {
-        return Err(Error::NothingToMeasure);
+        return Err(SweepError::NothingToMeasure.into());
     }
     let reference = match reference_file {
         Some(path) => load_reference(path, &scene.render)?,

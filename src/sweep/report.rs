@@ -1,7 +1,7 @@
 //! A sweep's results as CSV and Markdown, and writing them (with the plot) into a directory,
 //! every file atomically (a temporary file beside it, renamed into place once complete).
 
-use super::{Bench, Family, Metric, Reach, Row, sig};
+use super::{Bench, Family, Metric, Reach, Row, SweepError, sig};
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use std::fmt::Write as _;
@@ -240,14 +240,14 @@ pub fn markdown(bench: &Bench, ctx: &Context) -> String {
 pub fn prepare_out_dir(dir: &Path) -> Result<()> {
     let path = dir.to_path_buf();
     if dir.exists() && !dir.is_dir() {
-        return Err(Error::NotADirectory { path });
+        return Err(SweepError::NotADirectory { path }.into());
     }
     if let Err(source) = std::fs::create_dir_all(dir) {
         return Err(Error::CreateDirectory { path, source });
     }
     tempfile::NamedTempFile::new_in(dir)
         .map(drop)
-        .map_err(|source| Error::DirectoryNotWritable { path, source })
+        .map_err(|source| SweepError::DirectoryNotWritable { path, source }.into())
 }
 
 /// What [`write_results`] wrote.
