@@ -12,10 +12,18 @@ pub type Result<T> = std::result::Result<T, Error>;
 /// Everything the library's fallible operations report.
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
-    /// A scene did not compile: `scene` names it (a file, or what generated it) and
-    /// `diagnostics` holds every diagnostic, rendered without colour.
-    #[error("{scene} does not compile:\n{diagnostics}")]
-    Compile { scene: String, diagnostics: String },
+    /// A scene did not compile: `scene` names it (a file, or what generated it),
+    /// `diagnostics` holds every diagnostic and `sources` the files they point into. The
+    /// message renders them without colour; a caller may render them otherwise.
+    #[error(
+        "{scene} does not compile:\n{}",
+        crate::diagnostic::render_all(.diagnostics, .sources, false)
+    )]
+    Compile {
+        scene: String,
+        diagnostics: Vec<crate::diagnostic::Diagnostic>,
+        sources: crate::source::SourceMap,
+    },
 
     /// The pool of worker threads could not be started.
     #[error("cannot start worker threads: {0}")]
