@@ -1,4 +1,10 @@
+use super::files::{io_error, is_numbered_name, write_temp};
+use super::sink::Kind;
 use super::*;
+use std::ffi::OsStr;
+use std::fs;
+use std::io::Write;
+use std::path::PathBuf;
 
 fn settings() -> OutputSettings {
     OutputSettings {
