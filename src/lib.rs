@@ -69,6 +69,7 @@ pub mod farm;
 pub mod film;
 #[doc(hidden)]
 pub mod generate;
+pub mod image;
 #[doc(hidden)]
 pub mod ir;
 #[doc(hidden)]
@@ -176,12 +177,19 @@ impl Compilation {
 
     /// The typed scene, or [`Error::Compile`] with every diagnostic when it has errors.
     pub fn into_scene(self) -> Result<scene::Scene> {
+        let name = (self.sources.files().next())
+            .map_or_else(|| "the scene".to_string(), |(_, f)| f.name.clone());
+        self.into_scene_named(name)
+    }
+
+    /// [`Compilation::into_scene`], the error naming the scene `name` (what generated it, say).
+    pub fn into_scene_named(self, name: impl Into<String>) -> Result<scene::Scene> {
         match self.scene {
             Some(scene) if !self.has_errors() => Ok(scene),
             _ => Err(Error::Compile {
-                scene: (self.sources.files().next())
-                    .map_or_else(|| "the scene".to_string(), |(_, f)| f.name.clone()),
-                diagnostics: self.render_diagnostics(false),
+                scene: name.into(),
+                diagnostics: self.diagnostics,
+                sources: self.sources,
             }),
         }
     }

@@ -3,14 +3,9 @@
 //! displayed image (exposure, filmic curve and sRGB encoding, in [0, 1]), which is what a
 //! viewer judges.
 
-use crate::math::color::srgb_encode;
+use crate::math::color::{luminance, srgb_encode};
 use crate::output::tonemap::filmic;
 use glam::DVec3;
-
-/// Rec. 709 luminance of linear RGB.
-pub fn luminance(c: DVec3) -> f64 {
-    c.dot(DVec3::new(0.2126, 0.7152, 0.0722))
-}
 
 /// How far one image (or animation, frames laid end to end) is from a reference.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -11,13 +11,17 @@ object lamp { shape = hypersphere(0.5) |> translate([1, 2, -1, 0]) material = li
 #[test]
 fn a_failed_compile_is_an_error_with_its_diagnostics() {
     let c = Compilation::from_source("bad.4ds", "object o { shape = hypersphre(1) }");
-    match c.into_scene() {
-        Err(Error::Compile { scene, diagnostics }) => {
-            assert_eq!(scene, "bad.4ds");
-            assert!(diagnostics.contains("hypersphere"), "{diagnostics}");
-        }
-        other => panic!("expected a compile error, got {:?}", other.map(|_| ())),
-    }
+    let e = c.into_scene().map(|_| ()).unwrap_err();
+    let message = e.to_string();
+    let Error::Compile {
+        scene, diagnostics, ..
+    } = e
+    else {
+        panic!("expected a compile error, got {message}");
+    };
+    assert_eq!(scene, "bad.4ds");
+    assert!(diagnostics.iter().any(|d| d.is_error()));
+    assert!(message.contains("hypersphere"), "{message}");
     let missing = Compilation::from_path(std::path::Path::new("no/such/scene.4ds"));
     let err = missing.into_scene().map(|_| ()).unwrap_err().to_string();
     assert!(err.contains("cannot read"), "{err}");

@@ -964,8 +964,8 @@ fn adaptive_sampling_spends_samples_where_the_noise_is() {
     assert_eq!(min, driver::ADAPTIVE_MIN);
     assert!(max > 4 * min, "{max}");
     for (c, e) in film.color.iter().zip(&film.std_error) {
-        let l = hyperslice::metrics::luminance(*c);
-        let el = hyperslice::metrics::luminance(*e);
+        let l = hyperslice::math::color::luminance(*c);
+        let el = hyperslice::math::color::luminance(*e);
         assert!(
             el <= 0.011 * l.max(1e-3) || film.samples.contains(&1024),
             "{l} {el}"

@@ -16,9 +16,35 @@ pub mod atrous;
 pub mod median;
 
 use crate::film::Film;
-use crate::scene::Denoise;
 
 pub use atrous::{AtrousOptions, Scales, Temporal};
+
+/// The denoiser a render uses: the language's `denoise` setting, the CLI's `--denoise` and
+/// the bench's families all name this one enum. Film headers store it by [`Denoise::name`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Denoise {
+    /// Leave every colour bit-identical.
+    None,
+    /// Median over 3x3 pixels times 3 frames, per channel (biased dark on skewed noise).
+    Median,
+    /// Edge-avoiding spatio-temporal a-trous wavelet filter, guided by albedo, 4D normal and
+    /// 4D position, with colour weights relative to each pixel's standard error.
+    Atrous,
+}
+
+impl Denoise {
+    pub const ALL: [Denoise; 3] = [Denoise::None, Denoise::Median, Denoise::Atrous];
+
+    /// The name in scenes and on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Denoise::None => "none",
+            Denoise::Median => "median",
+            Denoise::Atrous => "atrous",
+        }
+    }
+}
 
 /// Denoise every frame's `color` in place; `opts` is used by [`Denoise::Atrous`] only.
 pub fn denoise(frames: &mut [Film], filter: Denoise, opts: &AtrousOptions) {

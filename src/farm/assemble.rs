@@ -201,9 +201,8 @@ impl Finish {
 
     /// The settings the films were rendered with.
     pub fn of(meta: &FilmMeta) -> Finish {
-        use clap::ValueEnum;
         Finish {
-            denoise: Denoise::from_str(&meta.denoise, true).unwrap_or(Denoise::Atrous),
+            denoise: meta.denoise,
             output: OutputSettings {
                 exposure: meta.exposure,
                 fps: meta.fps,

@@ -8,7 +8,7 @@
 use super::plan::Part;
 use super::{FORMAT, FilmMeta, Fingerprint};
 use crate::error::{Error, Result};
-use crate::film::file::FilmFile;
+use crate::film::file::{self, FilmFile};
 use crate::render::driver::{Options, Progress, Store, Unit};
 use crate::scene::Scene;
 use std::path::{Path, PathBuf};
@@ -72,7 +72,7 @@ impl FilmDir {
             complete: false,
             stats: Default::default(),
             part,
-            denoise: r.denoise.name().to_string(),
+            denoise: r.denoise,
             exposure: r.exposure,
             fps: r.fps,
         };
@@ -186,24 +186,7 @@ pub fn read(path: &Path) -> Result<(FilmMeta, FilmFile)> {
 
 /// A film's meta from its header, without reading its pixels.
 pub fn read_meta(path: &Path) -> Result<FilmMeta> {
-    let unreadable = |message: String| Error::FilmHeader {
-        path: path.to_path_buf(),
-        message,
-    };
-    let meta = exr::meta::MetaData::read_from_file(path, false)
-        .map_err(|e| unreadable(format!("it is not a readable OpenEXR file ({e})")))?;
-    let text = (meta.headers.first())
-        .and_then(|h| {
-            h.own_attributes
-                .other
-                .get(&exr::prelude::Text::from("hyperslice"))
-        })
-        .and_then(|a| match a {
-            exr::prelude::AttributeValue::Text(t) => Some(t.to_string()),
-            _ => None,
-        })
-        .ok_or_else(|| unreadable("it is not a hyperslice film (no `hyperslice` header)".into()))?;
-    parse(path, &text)
+    parse(path, &file::read_header(path)?)
 }
 
 fn parse(path: &Path, header: &str) -> Result<FilmMeta> {
@@ -258,7 +241,7 @@ impl Store for FilmDir {
         };
         let header = serde_json::to_string(&meta).expect("film meta serialises");
         let (w, h) = (meta.width as usize, meta.height as usize);
-        let bytes = crate::film::file::encode(&header, w, h, &p.sums)?;
+        let bytes = file::encode(&header, w, h, &p.sums)?;
         std::fs::create_dir_all(&self.dir).map_err(|source| Error::CreateDirectory {
             path: self.dir.clone(),
             source,

@@ -47,8 +47,9 @@ pub struct FilmMeta {
     /// The part of the render this film belongs to (what `merge` checks is all there).
     pub part: plan::Part,
     /// How the frames are finished: these do not change the films, so they are not in the
-    /// fingerprint, and `merge` may override them.
-    pub denoise: String,
+    /// fingerprint, and `merge` may override them. The denoiser is stored by name; a name this
+    /// hyperslice does not know makes the header unreadable.
+    pub denoise: Denoise,
     pub exposure: f64,
     pub fps: f64,
 }
@@ -112,5 +113,20 @@ impl Fingerprint {
                 _ => {}
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn headers_name_the_denoiser_as_scenes_do() {
+        for d in Denoise::ALL {
+            let json = serde_json::to_string(&d).unwrap();
+            assert_eq!(json, format!("\"{}\"", d.name()));
+            assert_eq!(serde_json::from_str::<Denoise>(&json).unwrap(), d);
+        }
+        assert!(serde_json::from_str::<Denoise>("\"blur\"").is_err());
     }
 }

@@ -15,6 +15,7 @@ use exr::prelude::{
     LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text, WritableImage, read,
 };
 use glam::{DVec3, DVec4};
+use std::collections::HashMap;
 use std::io::Cursor;
 use std::path::Path;
 
@@ -151,6 +152,28 @@ pub fn encode(
     Ok(bytes.into_inner())
 }
 
+/// The caller's JSON header of the film file at `path`, without reading its pixels.
+pub fn read_header(path: &Path) -> Result<String, FilmError> {
+    let shown = path.display().to_string();
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| FilmError::Exr {
+        path: shown.clone(),
+        message: e.to_string(),
+    })?;
+    let attributes = meta.headers.first().map(|h| &h.own_attributes);
+    header_of(attributes.map(|a| &a.other)).map_err(|message| FilmError::NotAFilm {
+        path: shown,
+        message,
+    })
+}
+
+/// The header among a layer's attributes (the message says why when it is not there).
+fn header_of(attributes: Option<&HashMap<Text, AttributeValue>>) -> Result<String, String> {
+    match attributes.and_then(|a| a.get(&Text::from(HEADER))) {
+        Some(AttributeValue::Text(t)) => Ok(t.to_string()),
+        _ => Err(format!("it has no `{HEADER}` attribute")),
+    }
+}
+
 impl FilmFile {
     /// Read a film file.
     pub fn read(path: &Path) -> Result<FilmFile, FilmError> {
@@ -172,10 +195,7 @@ impl FilmFile {
             message,
         };
         let layer = &image.layer_data;
-        let header = match layer.attributes.other.get(&Text::from(HEADER)) {
-            Some(AttributeValue::Text(t)) => t.to_string(),
-            _ => return Err(not_a_film(format!("it has no `{HEADER}` attribute"))),
-        };
+        let header = header_of(Some(&layer.attributes.other)).map_err(not_a_film)?;
         let (width, height) = (layer.size.width(), layer.size.height());
         let n = width * height;
         let channel = |name: &str| -> Result<&[u32], FilmError> {
@@ -246,8 +266,7 @@ mod tests {
     fn a_plain_exr_is_not_a_film() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("plain.exr");
-        let img = crate::output::HdrImage::new(2, 2);
-        crate::output::write(&path, &[img], &Default::default()).unwrap();
+        exr::prelude::write_rgb_file(&path, 2, 2, |_, _| (0.0f32, 0.0f32, 0.0f32)).unwrap();
         let e = FilmFile::read(&path).unwrap_err().to_string();
         assert!(e.contains("is not a hyperslice film"), "{e}");
         let junk = dir.path().join("junk.exr");

@@ -6,7 +6,7 @@
 
 pub mod file;
 
-use crate::output::HdrImage;
+use crate::image::HdrImage;
 use glam::{DVec3, DVec4};
 
 /// The sums one pixel accumulates over its samples.

@@ -1,6 +1,12 @@
-//! Colour curves: the sRGB transfer function both ways, and HSV.
+//! Colour curves: the sRGB transfer function both ways, HSV, and luminance.
 
 use super::kernel::floor_mod;
+use glam::DVec3;
+
+/// Rec. 709 luminance of linear RGB.
+pub fn luminance(c: DVec3) -> f64 {
+    c.dot(DVec3::new(0.2126, 0.7152, 0.0722))
+}
 
 /// Decode an sRGB channel in `[0, 1]` to linear light (`#rrggbb` colours are sRGB; the
 /// renderer works in linear light).

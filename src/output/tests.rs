@@ -1,4 +1,10 @@
+use super::files::{io_error, is_numbered_name, write_temp};
+use super::sink::Kind;
 use super::*;
+use std::ffi::OsStr;
+use std::fs;
+use std::io::Write;
+use std::path::PathBuf;
 
 fn settings() -> OutputSettings {
     OutputSettings {
@@ -340,7 +346,7 @@ fn write_rejects_bad_frames_and_leaves_nothing() {
         };
         assert!(matches!(
             write(&path, &[overflow], &settings()),
-            Err(OutputError::BadFrameData { expected: None, .. })
+            Err(OutputError::ImpossibleSize { .. })
         ));
         let s = OutputSettings {
             exposure: f64::NAN,

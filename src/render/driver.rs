@@ -20,6 +20,7 @@ use super::sampler::SamplerKind;
 use crate::compile::{Compiled, frame_time};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
+use crate::math::color::luminance;
 use crate::scene::Scene;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -192,9 +193,8 @@ fn noisy(s: &PixelSums, threshold: f64) -> bool {
         return true;
     }
     let n = s.samples as f64;
-    let lum = |c: glam::DVec3| crate::metrics::luminance(c);
-    let mean = lum(s.radiance) / n;
-    let var = (lum(s.radiance_sq) / n - mean * mean).max(0.0);
+    let mean = luminance(s.radiance) / n;
+    let var = (luminance(s.radiance_sq) / n - mean * mean).max(0.0);
     // Channel squares summed with luminance weights bound the luminance's second moment
     // from above (Jensen), so this errs on the side of sampling more.
     let error = (var / (n - 1.0)).sqrt();

@@ -24,7 +24,7 @@ const SEGMENT_DIMENSIONS: u32 = 12;
 const CAMERA_DIMENSIONS: u32 = 2;
 
 /// Which sequence drives the samples.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SamplerKind {
     /// Independent uniform numbers (PCG32), one stream per sample.
     Random,

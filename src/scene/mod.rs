@@ -18,34 +18,11 @@ pub use print::Num;
 pub use shape::{Polytope, Rotation, Shape, ShapeKind};
 pub use types::Type;
 
+/// The denoiser is the `denoise` module's own type; a scene names one.
+pub use crate::denoise::Denoise;
+
 use crate::source::Span;
 use std::rc::Rc;
-
-/// The denoiser a render uses: the language's `denoise` setting, the CLI's `--denoise` and
-/// the bench's families all name this one enum.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum Denoise {
-    /// Leave every colour bit-identical.
-    None,
-    /// Median over 3x3 pixels times 3 frames, per channel (biased dark on skewed noise).
-    Median,
-    /// Edge-avoiding spatio-temporal a-trous wavelet filter, guided by albedo, 4D normal and
-    /// 4D position, with colour weights relative to each pixel's standard error.
-    Atrous,
-}
-
-impl Denoise {
-    pub const ALL: [Denoise; 3] = [Denoise::None, Denoise::Median, Denoise::Atrous];
-
-    /// The name in scenes and on the command line.
-    pub fn name(self) -> &'static str {
-        match self {
-            Denoise::None => "none",
-            Denoise::Median => "median",
-            Denoise::Atrous => "atrous",
-        }
-    }
-}
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Quality {

@@ -9,7 +9,7 @@
 use super::median;
 use crate::Compilation;
 use crate::compile::Compiled;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::render::driver::{self, Options};
 use crate::render::frame::{Features, FrameScene};
 use crate::render::march::MarcherKind;
@@ -133,13 +133,7 @@ impl Entry {
                 Compilation::from_source(&self.name, &crate::generate::generate(*seed).source)
             }
         };
-        if compilation.has_errors() {
-            return Err(Error::Compile {
-                scene: self.name.clone(),
-                diagnostics: compilation.render_diagnostics(false),
-            });
-        }
-        let mut scene = compilation.into_scene()?;
+        let mut scene = compilation.into_scene_named(&self.name)?;
         let r = &mut scene.render;
         (r.width, r.height, r.frames, r.spp) = (self.size.0, self.size.1, self.frames, self.spp);
         r.denoise = Denoise::None;

@@ -12,7 +12,7 @@
 
 use super::{median, sig};
 use crate::Compilation;
-use crate::error::{Error, Result};
+use crate::error::Result;
 use crate::render::driver::{self, Options};
 use crate::scene::{Denoise, Scene};
 use std::fmt::Write as _;
@@ -190,12 +190,7 @@ pub fn cost_curves(
     }
     for &n in &opts.object_list {
         let c = Compilation::from_source("objects.4ds", &objects_scene(n));
-        let Some(mut s) = c.scene else {
-            return Err(Error::Compile {
-                scene: format!("the generated scene of {n} objects"),
-                diagnostics: c.render_diagnostics(false),
-            });
-        };
+        let mut s = c.into_scene_named(format!("the generated scene of {n} objects"))?;
         s.render = base.render.clone();
         plan.push((Knob::Objects, n as u64, s, opts.threads));
     }

@@ -3,8 +3,7 @@
 //! single-setting families, and each panel's Pareto front as a dashed line. Text needs a font
 //! from the system; without one the plot is drawn without text.
 
-use super::{Family, Metric, Row, pareto_front, sig};
-use crate::error::{Error, Result};
+use super::{Family, Metric, Row, SweepError, pareto_front, sig};
 use crate::output::write_atomic;
 use plotters::coord::Shift;
 use plotters::element::DashedPathElement;
@@ -36,7 +35,7 @@ pub const FONT_PATHS: &[&str] = &[
 ];
 
 /// Register the first font of [`FONT_PATHS`] that exists and parses (once per process).
-pub fn font() -> Result<()> {
+pub fn font() -> Result<(), SweepError> {
     static FOUND: OnceLock<bool> = OnceLock::new();
     let found = *FOUND.get_or_init(|| {
         FONT_PATHS.iter().any(|path| {
@@ -51,7 +50,7 @@ pub fn font() -> Result<()> {
     if found {
         Ok(())
     } else {
-        Err(Error::NoFont {
+        Err(SweepError::NoFont {
             looked_for: FONT_PATHS,
         })
     }
@@ -97,15 +96,20 @@ fn range(values: impl Iterator<Item = f64>) -> std::ops::Range<f64> {
     lo..hi
 }
 
-/// [`Error::Plot`] from what plotters reports.
-fn err(e: impl std::error::Error + Send + Sync + 'static) -> Error {
-    Error::Plot(Box::new(e))
+/// [`SweepError::Plot`] from what plotters reports.
+fn err(e: impl std::error::Error + Send + Sync + 'static) -> SweepError {
+    SweepError::Plot(Box::new(e))
 }
 
 /// The plot as RGB8 pixels, `width * height * 3` bytes: the linear-RMSE panel on the left, the
 /// display-RMSE panel on the right. `title` `None` draws no text at all (no title, tick
 /// labels, axis names or legend); each panel's caption is `title: <metric> against time`.
-pub fn draw(rows: &[Row], width: u32, height: u32, title: Option<&str>) -> Result<Vec<u8>> {
+pub fn draw(
+    rows: &[Row],
+    width: u32,
+    height: u32,
+    title: Option<&str>,
+) -> Result<Vec<u8>, SweepError> {
     let mut buf = vec![255u8; width as usize * height as usize * 3];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
@@ -126,7 +130,7 @@ fn panel(
     rows: &[Row],
     title: Option<&str>,
     metric: Metric,
-) -> Result<()> {
+) -> Result<(), SweepError> {
     let y = |r: &Row| metric.of(&r.error);
     let valid = |r: &&Row| r.time.is_finite() && r.time > 0.0 && y(r).is_finite() && y(r) > 0.0;
     let shown: Vec<&Row> = rows.iter().filter(valid).collect();
@@ -275,16 +279,16 @@ fn panel(
 }
 
 /// Encode RGB8 pixels as PNG.
-fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>> {
+fn encode_png(pixels: &[u8], width: u32, height: u32) -> Result<Vec<u8>, SweepError> {
     let mut out = vec![];
     crate::output::png::encode(&mut out, pixels.as_chunks().0, width, height)
-        .map_err(Error::PlotEncoding)?;
+        .map_err(SweepError::PlotEncoding)?;
     Ok(out)
 }
 
 /// Draw the plot and write it to `path` as PNG (atomically). Without a font, or when drawing
 /// text fails, the plot is drawn without text and the outcome says why.
-pub fn write_png(rows: &[Row], path: &Path, title: &str) -> Result<PlotOutcome> {
+pub fn write_png(rows: &[Row], path: &Path, title: &str) -> crate::Result<PlotOutcome> {
     let (pixels, note) = match font().and_then(|()| draw(rows, WIDTH, HEIGHT, Some(title))) {
         Ok(p) => (p, None),
         Err(why) => (

@@ -1,7 +1,7 @@
 //! A sweep's results as CSV and Markdown, and writing them (with the plot) into a directory,
 //! every file atomically (a temporary file beside it, renamed into place once complete).
 
-use super::{Bench, Family, Metric, Reach, Row, sig};
+use super::{Bench, Family, Metric, Reach, Row, SweepError};
 use crate::error::{Error, Result};
 use crate::output::write_atomic;
 use std::fmt::Write as _;
@@ -240,14 +240,14 @@ pub fn markdown(bench: &Bench, ctx: &Context) -> String {
 pub fn prepare_out_dir(dir: &Path) -> Result<()> {
     let path = dir.to_path_buf();
     if dir.exists() && !dir.is_dir() {
-        return Err(Error::NotADirectory { path });
+        return Err(SweepError::NotADirectory { path }.into());
     }
     if let Err(source) = std::fs::create_dir_all(dir) {
         return Err(Error::CreateDirectory { path, source });
     }
     tempfile::NamedTempFile::new_in(dir)
         .map(drop)
-        .map_err(|source| Error::DirectoryNotWritable { path, source })
+        .map_err(|source| SweepError::DirectoryNotWritable { path, source }.into())
 }
 
 /// What [`write_results`] wrote.
@@ -274,4 +274,28 @@ pub fn write_results(dir: &Path, bench: &Bench, ctx: &Context) -> Result<Written
         plot: plot_path,
         plot_note: outcome.note,
     })
+}
+
+/// A number to `digits` significant digits, fixed-point when that stays short (for tables,
+/// progress lines and the plot's tick labels).
+pub fn sig(x: f64, digits: usize) -> String {
+    if !x.is_finite() {
+        return if x.is_nan() {
+            "NaN".into()
+        } else if x > 0.0 {
+            "inf".into()
+        } else {
+            "-inf".into()
+        };
+    }
+    if x == 0.0 {
+        return "0".into();
+    }
+    let mag = x.abs().log10().floor() as i32;
+    if (-3..5).contains(&mag) {
+        let decimals = (digits as i32 - 1 - mag).max(0) as usize;
+        format!("{x:.decimals$}")
+    } else {
+        format!("{x:.prec$e}", prec = digits.saturating_sub(1))
+    }
 }

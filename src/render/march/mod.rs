@@ -29,7 +29,7 @@ use glam::DVec4;
 use lanes::Lanes;
 
 /// Which marcher a render uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MarcherKind {
     /// Through the frame's cells where a probe of at most about 1,700 rays shows that they pay,
     /// on the whole tape (as `whole`) where they do not (the default).
