@@ -442,7 +442,7 @@ fn d4_crossings(base: [f64; 4], slope: [f64; 4], len: f64, most: usize, out: &mu
                 }
             }
         }
-        if !(exit.0 < len) {
+        if exit.0.is_nan() || exit.0 >= len {
             break;
         }
         s = s.max(exit.0);
@@ -463,7 +463,7 @@ fn rep_crossings(base: f64, slope: f64, l: f64, len: f64, most: usize, out: &mut
             break;
         }
         let t = (c + 0.5 * dir - base) / slope;
-        if !(t < len) {
+        if t.is_nan() || t >= len {
             break;
         }
         out.push(t.max(0.0));
