@@ -84,8 +84,9 @@ pub enum FilmError {
     NotAFilm { path: String, message: String },
 }
 
-/// The bytes of a film file of `width` x `height` pixels' `sums` (ZIP-compressed scan lines)
-/// with the caller's JSON `header`.
+/// The bytes of a film file of `width` x `height` pixels' `sums` with the caller's JSON
+/// `header`. Scan lines are RLE-compressed: ZIP made a `d4_packing` film a fifth smaller (22
+/// against 27 MB at 512 x 384) for a tenth of the render's time at 4 spp.
 ///
 /// # Panics
 /// If `sums` does not hold `width * height` pixels.
@@ -135,7 +136,7 @@ pub fn encode(
         (width, height),
         attributes,
         Encoding {
-            compression: Compression::ZIP16,
+            compression: Compression::RLE,
             ..Encoding::default()
         },
         AnyChannels::sort(SmallVec::from_vec(channels)),
