@@ -24,7 +24,8 @@
 //!   that [`render::driver::render_units`] keeps in film files as they finish, so a render
 //!   resumes where it stopped, runs as shards on several machines, and is finished (summed,
 //!   denoised as a stream, encoded frame by frame) by [`farm::assemble`] in memory that does
-//!   not grow with the number of frames.
+//!   not grow with the number of frames. [`farm::job::Job`] runs all of it in one call (what
+//!   `hyperslice render` runs), and [`farm::job::merge`] merges shards.
 //!
 //! Every fallible step returns [`Result`] with the one [`Error`] type. The stages' own modules
 //! stay public for tests and benchmarks, but the items above are the API.

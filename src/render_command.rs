@@ -1,5 +1,6 @@
-//! `hyperslice render`: compile a scene, apply command-line overrides, render every frame with
-//! a progress bar, and write the frames.
+//! `hyperslice render` and `hyperslice merge`: compile a scene, apply command-line overrides,
+//! and run it as a [`Job`] (or merge shards with [`job::merge`]) with Ctrl-C as its cancel flag,
+//! showing progress bars and printing what it did. The work itself is the library's.
 
 use clap::Args;
 use hyperslice::farm::assemble::Films;
@@ -378,12 +379,6 @@ struct Terminal<'a> {
     progressive: bool,
 }
 
-impl Terminal<'_> {
-    fn bar(&self) -> &ProgressBar {
-        self.bar.as_ref().expect("a bar while it reports")
-    }
-}
-
 impl Report for Terminal<'_> {
     fn rendering(&mut self, s: &Start) {
         let r = self.r;
@@ -454,7 +449,7 @@ impl Report for Terminal<'_> {
     }
 
     fn samples(&self, n: u64) {
-        let bar = self.bar();
+        let Some(bar) = &self.bar else { return };
         bar.inc(n);
         let rate = sample_rate(bar.position(), self.started.elapsed().as_secs_f64());
         if self.progressive {
@@ -466,7 +461,9 @@ impl Report for Terminal<'_> {
     }
 
     fn rendered(&mut self) {
-        self.bar().finish_and_clear();
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
     }
 
     fn finishing(&mut self, frames: usize) {
@@ -488,11 +485,15 @@ impl Report for Terminal<'_> {
     }
 
     fn frame_finished(&self) {
-        self.bar().inc(1);
+        if let Some(bar) = &self.bar {
+            bar.inc(1);
+        }
     }
 
     fn finished(&mut self) {
-        self.bar().finish_and_clear();
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
     }
 }
 
