@@ -24,7 +24,8 @@
 //!   that [`render::driver::render_units`] keeps in film files as they finish, so a render
 //!   resumes where it stopped, runs as shards on several machines, and is finished (summed,
 //!   denoised as a stream, encoded frame by frame) by [`farm::assemble`] in memory that does
-//!   not grow with the number of frames.
+//!   not grow with the number of frames. [`farm::job::Job`] runs all of it in one call (what
+//!   `hyperslice render` runs), and [`farm::job::merge`] merges shards.
 //!
 //! Every fallible step returns [`Result`] with the one [`Error`] type. The stages' own modules
 //! stay public for tests and benchmarks, but the items above are the API.
@@ -91,11 +92,31 @@ pub mod vm;
 
 pub use compile::Compiled;
 pub use error::{Error, Result};
-pub use render::driver::{Monitor, Options as RenderOptions, Rendered};
+pub use render::driver::{Monitor, Options as RenderOptions};
 
-/// Render every frame of `scene`, telling `monitor` of progress and stopping when it says so.
+/// Frames rendered in memory by [`render()`].
+pub struct Rendered {
+    /// The frames, denoised with the scene's `denoise` filter.
+    pub frames: Vec<film::Film>,
+    pub stats: render::integrator::Stats,
+    /// Time spent denoising (part of `elapsed`).
+    pub denoise_time: Duration,
+    pub elapsed: Duration,
+}
+
+/// Render every frame of `scene` in memory, telling `monitor` of progress and stopping when it
+/// says so, then denoise them with the scene's filter.
 pub fn render(scene: &scene::Scene, options: &RenderOptions, monitor: Monitor) -> Result<Rendered> {
-    render::driver::render_monitored(scene, options, monitor)
+    let start = Instant::now();
+    let (mut frames, stats) = render::driver::render_films(scene, options, monitor)?;
+    let denoise_start = Instant::now();
+    farm::assemble::denoise_frames(&mut frames, scene.render.denoise, options)?;
+    Ok(Rendered {
+        frames,
+        stats,
+        denoise_time: denoise_start.elapsed(),
+        elapsed: start.elapsed(),
+    })
 }
 
 /// Write rendered frames to `path` (`.gif`, `.png` or `.exr`, by its extension) with the
@@ -112,6 +133,7 @@ pub fn write(path: &Path, rendered: &Rendered, scene: &scene::Scene) -> Result<o
 use diagnostic::Diagnostic;
 use source::SourceMap;
 use std::path::Path;
+use std::time::{Duration, Instant};
 
 /// Which frame `--emit ir|bytecode` shows: tapes are specialised per frame, so the text is
 /// exactly what that frame renders with.

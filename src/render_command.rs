@@ -1,9 +1,15 @@
-//! `hyperslice render`: compile a scene, apply command-line overrides, render every frame with
-//! a progress bar, and write the frames.
+//! `hyperslice render` and `hyperslice merge`: compile a scene, apply command-line overrides,
+//! and run it as a [`Job`] (or merge shards with [`job::merge`]) with Ctrl-C as its cancel flag,
+//! showing progress bars and printing what it did. The work itself is the library's.
 
 use clap::Args;
+use hyperslice::farm::assemble::Films;
+use hyperslice::farm::job::{
+    self, Finished, FrameRange, Frames, Interrupted, Job, MergeSettings, Outcome, Report, Resume,
+    Start,
+};
 use hyperslice::output;
-use hyperslice::render::driver::{self, Options};
+use hyperslice::render::driver::Options;
 use hyperslice::render::march::MarcherKind;
 use hyperslice::render::sampler::SamplerKind;
 use hyperslice::scene::{Denoise, Quality, RenderSettings, Scene};
@@ -11,6 +17,7 @@ use indicatif::HumanCount;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::str::FromStr;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -86,7 +93,7 @@ pub struct RenderArgs {
     frame: Option<u32>,
     /// Render only frames A..B (half-open, 0-based; A..=B includes B) of the animation, each
     /// identical to the same frame of a whole render and numbered as in it.
-    #[arg(long, value_name = "A..B", value_parser = parse_frame_range)]
+    #[arg(long, value_name = "A..B", value_parser = FrameRange::from_str)]
     frame_range: Option<FrameRange>,
     /// Keep the films (each frame's linear accumulation, multi-layer EXR) in DIR. An
     /// interrupted render run again with the same DIR resumes where it stopped. Without it,
@@ -173,49 +180,6 @@ setting_flags! {
     parse_fps: f64 = FPS,
     parse_exposure: f64 = EXPOSURE,
     parse_frame: u32 = FRAME,
-}
-
-/// `A..B`, `A..=B` or `A..` (to the last frame).
-/// `--frame-range`: the frames, and the text as written, for messages.
-#[derive(Clone)]
-struct FrameRange {
-    start: u32,
-    /// Excluded; `None` to the last frame.
-    end: Option<u32>,
-    text: String,
-}
-
-fn parse_frame_range(s: &str) -> Result<FrameRange, String> {
-    let (start, end) = parse_range(s)?;
-    Ok(FrameRange {
-        start,
-        end,
-        text: s.trim().to_string(),
-    })
-}
-
-fn parse_range(s: &str) -> Result<(u32, Option<u32>), String> {
-    let err = || format!("`{s}` is not a frame range; write A..B (B excluded) or A..=B");
-    let (a, b, inclusive) = if let Some((a, b)) = s.split_once("..=") {
-        (a, b, true)
-    } else if let Some((a, b)) = s.split_once("..") {
-        (a, b, false)
-    } else {
-        return Err(err());
-    };
-    let a: u32 = a.trim().parse().map_err(|_| err())?;
-    let b: Option<u32> = match b.trim() {
-        "" if !inclusive => None,
-        b => Some(
-            (b.parse::<u32>().map_err(|_| err())?)
-                .checked_add(inclusive as u32)
-                .ok_or_else(err)?,
-        ),
-    };
-    if b.is_some_and(|b| b <= a) {
-        return Err(format!("`{s}` holds no frames"));
-    }
-    Ok((a, b))
 }
 
 /// `K/N` with `K < N`.
@@ -389,82 +353,6 @@ fn interrupted() -> &'static AtomicBool {
     &FLAG
 }
 
-/// Refuse a render whose frames in flight (or, when `finishing`, whose denoising of `frames`
-/// frames) need more memory than the machine has available, before anything is written: it
-/// would otherwise abort part-way with a failed allocation.
-fn refuse_what_memory_cannot_hold(
-    r: &RenderSettings,
-    units: &[driver::Unit],
-    finishing: bool,
-    frames: usize,
-) -> hyperslice::error::Result<()> {
-    use hyperslice::farm::memory;
-    let threads = match r.threads {
-        0 => std::thread::available_parallelism().map_or(1, |n| n.get()),
-        n => n as usize,
-    };
-    let in_flight = threads.min(driver::FRAME_GROUP).min(units.len()).max(1);
-    let finish = finishing.then_some((r.denoise, frames));
-    let needed = memory::needed(r.width, r.height, in_flight, finish);
-    let (available, known) = match memory::available() {
-        Some(a) => (a, true),
-        None => (memory::UNKNOWN_AVAILABLE, false),
-    };
-    if needed <= available {
-        return Ok(());
-    }
-    let per_pixel = needed as f64 / (r.width as f64 * r.height as f64) / 1000.0;
-    let more = if in_flight > 1 || frames > 1 {
-        ", or hold fewer frames at once with --threads 1 or --frame-range"
-    } else {
-        ""
-    };
-    Err(hyperslice::Error::Usage(format!(
-        "a {} x {} render needs about {} of memory ({per_pixel:.2} KB a pixel), but {} {}; make the image smaller with --size{more}",
-        r.width,
-        r.height,
-        memory::human(needed),
-        memory::human(available),
-        if known {
-            "is available"
-        } else {
-            "is the most assumed when the memory available is unknown"
-        },
-    )))
-}
-
-/// `--restart`: remove the films of `units` (the whole folder when it is the hidden one).
-fn discard_films(
-    films: &hyperslice::farm::films::FilmDir,
-    units: &[driver::Unit],
-    hidden: bool,
-) -> hyperslice::error::Result<()> {
-    let gone = |r: std::io::Result<()>| match r {
-        Err(e) if e.kind() != std::io::ErrorKind::NotFound => Err(e),
-        _ => Ok(()),
-    };
-    let removed = if hidden {
-        gone(std::fs::remove_dir_all(films.dir()))
-    } else {
-        units
-            .iter()
-            .try_for_each(|u| gone(std::fs::remove_file(films.path_of(u))))
-    };
-    removed.map_err(|source| hyperslice::Error::RemoveFilms {
-        path: films.dir().to_path_buf(),
-        source,
-    })
-}
-
-/// Frames as `--frame-range` takes them, the last included: `0..=6`, or `7..` when none.
-fn frame_span(frames: &std::ops::Range<u32>) -> String {
-    if frames.is_empty() {
-        format!("{}..", frames.start)
-    } else {
-        format!("{}..={}", frames.start, frames.end - 1)
-    }
-}
-
 /// `495,370 samples/s`: the progress bar's rate of `n` samples in `secs` seconds.
 fn sample_rate(n: u64, secs: f64) -> String {
     format!(
@@ -473,295 +361,242 @@ fn sample_rate(n: u64, secs: f64) -> String {
     )
 }
 
-/// The hidden film directory beside `out` for a render without `--films`.
-fn hidden_films(out: &Path) -> PathBuf {
-    let name = out.file_name().unwrap_or_default().to_string_lossy();
-    out.with_file_name(format!(".{name}.films"))
-}
-
 fn plural(n: usize, one: &str) -> String {
     format!("{n} {one}{}", if n == 1 { "" } else { "s" })
 }
 
-fn render(args: &RenderArgs, mut scene: Scene) -> hyperslice::error::Result<()> {
-    use hyperslice::error::Error;
-    use hyperslice::farm::{assemble, films::FilmDir, plan::Part};
+/// A render on the terminal: its first lines and progress bars.
+struct Terminal<'a> {
+    file: &'a Path,
+    r: &'a RenderSettings,
+    bar: Option<ProgressBar>,
+    /// What the rendering bar's message counts: when rendering started, the units, those
+    /// finished before, and the samples of each.
+    started: Instant,
+    units: usize,
+    before: usize,
+    per_frame: u64,
+    progressive: bool,
+}
+
+impl Report for Terminal<'_> {
+    fn rendering(&mut self, s: &Start) {
+        let r = self.r;
+        let shard = s.part.shard;
+        eprintln!(
+            "rendering {}: {} x {}, {}{}{}, {} spp, {} bounces",
+            self.file.display(),
+            r.width,
+            r.height,
+            if s.frames == (0..r.frames) {
+                plural(r.frames as usize, "frame")
+            } else {
+                format!("frames {} of {}", s.asked, r.frames)
+            },
+            if shard[1] > 1 {
+                format!(", shard {}/{}", shard[0], shard[1])
+            } else {
+                String::new()
+            },
+            if shard[1] > 1 && !s.part.splits_frames() {
+                s.units.first().map_or(" (no samples)".to_string(), |u| {
+                    format!(" (samples {}..{})", u.samples.start, u.samples.end)
+                })
+            } else {
+                String::new()
+            },
+            r.spp,
+            r.bounces
+        );
+        if s.earlier.complete + s.earlier.partial > 0 {
+            eprintln!(
+                "resuming from {}: {} of {} finished, {} part-done",
+                s.dir.display(),
+                s.earlier.complete,
+                plural(s.units.len(), "frame"),
+                s.earlier.partial
+            );
+        }
+        // A progressive render's length is its time budget, or unknown: the bar then shows the
+        // samples taken and their rate.
+        let bar = if s.progressive {
+            let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{spinner} {elapsed_precise} {human_pos} samples, {msg}",
+                )
+                .expect("a valid template"),
+            );
+            bar
+        } else {
+            let bar = ProgressBar::with_draw_target(Some(s.samples), ProgressDrawTarget::stderr());
+            bar.set_style(
+                ProgressStyle::with_template(
+                    "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}",
+                )
+                .expect("a valid template"),
+            );
+            bar
+        };
+        self.bar = Some(bar);
+        self.started = Instant::now();
+        self.units = s.units.len();
+        self.before = s.earlier.complete;
+        // Samples per pixel of each unit (they are alike).
+        let part_samples = s.units.first().map_or(0, |u| u.samples.len() as u64);
+        self.per_frame = (r.width as u64 * r.height as u64 * part_samples).max(1);
+        self.progressive = s.progressive;
+    }
+
+    fn samples(&self, n: u64) {
+        let Some(bar) = &self.bar else { return };
+        bar.inc(n);
+        let rate = sample_rate(bar.position(), self.started.elapsed().as_secs_f64());
+        if self.progressive {
+            bar.set_message(rate);
+        } else {
+            let done = (self.before + (bar.position() / self.per_frame) as usize).min(self.units);
+            bar.set_message(format!("{done}/{} frames, {rate}", self.units));
+        }
+    }
+
+    fn rendered(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+
+    fn finishing(&mut self, frames: usize) {
+        eprintln!(
+            "{} {}",
+            if self.r.denoise == Denoise::None {
+                "encoding"
+            } else {
+                "denoising and encoding"
+            },
+            plural(frames, "frame")
+        );
+        let bar = ProgressBar::with_draw_target(Some(frames as u64), ProgressDrawTarget::stderr());
+        bar.set_style(
+            ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed_precise} eta {eta}")
+                .expect("a valid template"),
+        );
+        self.bar = Some(bar);
+    }
+
+    fn frame_finished(&self) {
+        if let Some(bar) = &self.bar {
+            bar.inc(1);
+        }
+    }
+
+    fn finished(&mut self) {
+        if let Some(bar) = self.bar.take() {
+            bar.finish_and_clear();
+        }
+    }
+}
+
+/// The job `render` runs: the scene with the flags applied, and what the flags ask of it.
+fn job(args: &RenderArgs, mut scene: Scene) -> Job {
     args.apply(&mut scene.render);
     let out = args
         .output
         .clone()
         .unwrap_or_else(|| default_output(&args.file));
-    // Fail on an unwritable path before spending any time rendering.
-    output::check_writable(&out, &args.file)?;
-    let r = &scene.render;
-    let frames = match (args.frame, &args.frame_range) {
-        (Some(f), _) => f..f.saturating_add(1),
-        (None, Some(range)) => range.start..range.end.unwrap_or(r.frames),
-        (None, None) => 0..r.frames,
+    let mut job = Job::new(scene, &args.file, out);
+    job.films = args.films.clone();
+    job.frames = match (args.frame, &args.frame_range) {
+        (Some(f), _) => Frames::One(f),
+        (None, Some(range)) => Frames::Range(range.clone()),
+        (None, None) => Frames::All,
     };
-    // The frames as the user gave them.
-    let asked = match &args.frame_range {
-        Some(range) => range.text.clone(),
-        None => frame_span(&frames),
+    job.shard = args.shard.unwrap_or((0, 1));
+    job.resume = if args.restart {
+        Resume::Restart
+    } else if args.watch && args.films.is_none() {
+        // `--watch` re-renders a draft on every change: its own hidden films of the scene
+        // before the change are of no use.
+        Resume::Replace
+    } else {
+        Resume::Resume
     };
-    if let Some(f) = args.frame
-        && f >= r.frames
-    {
-        return Err(Error::Usage(format!(
-            "frame {f} is not in the animation: it has {} (0..{}); set `frames` in the scene or --frames to render more",
-            plural(r.frames as usize, "frame"),
-            r.frames
-        )));
-    }
-    if frames.end > r.frames || frames.is_empty() {
-        return Err(Error::Usage(format!(
-            "frames {} are not all in the animation: it has {} ({}); set `frames` in the scene or --frames to render more",
-            asked,
-            plural(r.frames as usize, "frame"),
-            frame_span(&(0..r.frames))
-        )));
-    }
-    let shard = args.shard.unwrap_or((0, 1));
-    let part = Part::new(frames.clone(), shard);
-    let progressive = args.time_budget.is_some() || args.noise_threshold.is_some();
-    if shard.1 > 1 && !part.splits_frames() && progressive {
-        return Err(Error::Usage(format!(
-            "{} frames cannot be split {} ways by samples with --time-budget or --noise-threshold, which decide per pixel how many samples to take; give at least {} frames or a fixed spp",
-            frames.len(),
-            shard.1,
-            shard.1
-        )));
-    }
-    // The budget is for the whole run: what finishing the frames will take is kept back.
-    let finishing = (args.time_budget.is_some() && shard.1 == 1)
-        .then(|| assemble::finishing_time(r, frames.len(), &out))
-        .transpose()?
-        .unwrap_or_default();
-    let options = Options {
-        threads: (r.threads > 0).then_some(r.threads as usize),
+    job.remove_stale = args.remove_stale;
+    job.options = Options {
         light_sampling: args.light_sampling == Switch::On,
         sampler: args.sampler.into(),
         marcher: args.marcher.into(),
-        time_budget: args.time_budget.map(|b| b.saturating_sub(finishing)),
+        time_budget: args.time_budget,
         noise_threshold: args.noise_threshold,
-        ..Options::default()
+        ..job.options
     };
-    let units = part.units(r.spp);
-    refuse_what_memory_cannot_hold(r, &units, shard.1 == 1, frames.len())?;
-    let dir = args.films.clone().unwrap_or_else(|| hidden_films(&out));
-    let name = args.file.file_name().unwrap_or_default().to_string_lossy();
-    let films = FilmDir::open(&dir, &scene, &name, &options, part)?;
-    if args.restart {
-        discard_films(&films, &units, args.films.is_none())?;
-    }
-    if shard.1 > 1 {
-        // Another shard's films of other settings would only be refused at `merge`.
-        films.check_shards(&units)?;
-    }
-    let earlier = match films.survey(&units) {
-        // `--watch` re-renders a draft on every change: its own hidden films of the scene
-        // before the change are of no use.
-        Err(Error::FilmMismatch { .. }) if args.watch && args.films.is_none() => {
-            discard_films(&films, &units, true)?;
-            films.survey(&units)?
-        }
-        // Films of other settings: the work of an earlier run, kept unless asked.
-        Err(Error::FilmMismatch { ours, theirs, path }) => {
-            return Err(Error::Usage(format!(
-                "{} holds the films of another scene or other settings: they have `{theirs}` where this render has `{ours}` (in {}); \
-                 run with the same settings to resume or reuse them, or pass --restart to discard them{}",
-                dir.display(),
-                path.file_name().unwrap_or_default().to_string_lossy(),
-                if args.films.is_some() {
-                    " (or render into another --films directory)"
-                } else {
-                    " (or move the folder aside to keep it)"
-                }
-            )));
-        }
-        other => other?,
+    job
+}
+
+fn render(args: &RenderArgs, scene: Scene) -> hyperslice::error::Result<()> {
+    use hyperslice::error::Error;
+    let job = job(args, scene);
+    let (r, out) = (&job.scene.render, &job.output);
+    let mut terminal = Terminal {
+        file: &args.file,
+        r,
+        bar: None,
+        started: Instant::now(),
+        units: 0,
+        before: 0,
+        per_frame: 1,
+        progressive: false,
     };
-    eprintln!(
-        "rendering {}: {} x {}, {}{}{}, {} spp, {} bounces",
-        args.file.display(),
-        r.width,
-        r.height,
-        if frames == (0..r.frames) {
-            plural(r.frames as usize, "frame")
-        } else {
-            format!("frames {asked} of {}", r.frames)
-        },
-        if shard.1 > 1 {
-            format!(", shard {}/{}", shard.0, shard.1)
-        } else {
-            String::new()
-        },
-        if shard.1 > 1 && !part.splits_frames() {
-            units.first().map_or(" (no samples)".to_string(), |u| {
-                format!(" (samples {}..{})", u.samples.start, u.samples.end)
-            })
-        } else {
-            String::new()
-        },
-        r.spp,
-        r.bounces
-    );
-    if earlier.complete + earlier.partial > 0 {
-        eprintln!(
-            "resuming from {}: {} of {} finished, {} part-done",
-            dir.display(),
-            earlier.complete,
-            plural(units.len(), "frame"),
-            earlier.partial
-        );
-    }
-    let todo: Vec<_> = units
-        .iter()
-        .filter(|u| !earlier.finished.contains(u))
-        .cloned()
-        .collect();
-    let total: u64 = (todo.iter())
-        .map(|u| r.width as u64 * r.height as u64 * u.samples.len() as u64)
-        .sum::<u64>()
-        .saturating_sub(earlier.samples);
-    // A progressive render's length is its time budget, or unknown: the bar then shows the
-    // samples taken and their rate.
-    let bar = if progressive {
-        let bar = ProgressBar::with_draw_target(None, ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template("{spinner} {elapsed_precise} {human_pos} samples, {msg}")
-                .expect("a valid template"),
-        );
-        bar
-    } else {
-        let bar = ProgressBar::with_draw_target(Some(total), ProgressDrawTarget::stderr());
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{bar:40} {percent:>3}% {elapsed_precise} eta {eta} {msg}",
-            )
-            .expect("a valid template"),
-        );
-        bar
-    };
-    let started = Instant::now();
-    let rate = |n: u64| sample_rate(n, started.elapsed().as_secs_f64());
-    let per_frame = (r.width as u64 * r.height as u64 * part_samples(&units)).max(1);
-    let before = earlier.complete;
-    let progress = |n: u64| {
-        bar.inc(n);
-        if progressive {
-            bar.set_message(rate(bar.position()));
-        } else {
-            let done = (before + (bar.position() / per_frame) as usize).min(units.len());
-            bar.set_message(format!(
-                "{done}/{} frames, {}",
-                units.len(),
-                rate(bar.position())
-            ));
-        }
-    };
-    let monitor = driver::Monitor {
-        progress: &progress,
-        cancel: Some(interrupted()),
-    };
-    let rendered = driver::render_units(&scene, &options, &todo, &films, monitor);
-    bar.finish_and_clear();
-    let render_secs = started.elapsed().as_secs_f64();
-    let this_run = match rendered {
-        Err(Error::Cancelled) => {
-            let after = films.survey(&units)?;
+    let done = match job.run(&mut terminal, Some(interrupted()))? {
+        Outcome::Interrupted(Interrupted::Rendering {
+            render_secs,
+            complete,
+            partial,
+            units,
+            dir,
+        }) => {
             eprintln!(
-                "interrupted after {render_secs:.1} s: {} of {} finished and {} part-done kept in {}",
-                after.complete,
-                plural(units.len(), "frame"),
-                after.partial,
+                "interrupted after {render_secs:.1} s: {complete} of {} finished and {partial} part-done kept in {}",
+                plural(units, "frame"),
                 dir.display()
             );
             eprintln!("  run the same command again to resume where it stopped");
             return Err(Error::Cancelled);
         }
-        Err(e) => return Err(e),
-        Ok(stats) => stats,
-    };
-    if shard.1 > 1 {
-        eprintln!(
-            "rendered shard {}/{} in {render_secs:.2} s into {}",
-            shard.0,
-            shard.1,
-            dir.display()
-        );
-        eprintln!(
-            "  when all {} shards are done: hyperslice merge {} -o {}",
-            shard.1,
-            dir.display(),
-            out.display()
-        );
-        return Ok(());
-    }
-    let set = assemble::Films::of_units(&dir, &units, r.spp)?;
-    let finish_start = Instant::now();
-    eprintln!(
-        "{} {}",
-        if r.denoise == Denoise::None {
-            "encoding"
-        } else {
-            "denoising and encoding"
-        },
-        plural(units.len(), "frame")
-    );
-    let finish = assemble::Finish::of_render(r);
-    let bar = ProgressBar::with_draw_target(Some(units.len() as u64), ProgressDrawTarget::stderr());
-    bar.set_style(
-        ProgressStyle::with_template("{bar:40} {pos}/{len} frames {elapsed_precise} eta {eta}")
-            .expect("a valid template"),
-    );
-    let monitor = driver::Monitor {
-        progress: &|n| bar.inc(n),
-        cancel: Some(interrupted()),
-    };
-    let written = assemble::assemble(&set, &finish, &out, monitor);
-    bar.finish_and_clear();
-    if let Err(Error::Cancelled) = written {
-        eprintln!(
-            "interrupted while finishing: every frame's film is kept in {}\n  run the same command again to finish",
-            dir.display()
-        );
-    }
-    let written = written?;
-    let finish_secs = finish_start.elapsed().as_secs_f64();
-    let stale: Vec<PathBuf> = output::stale_frames(&out, &written.files)
-        .into_iter()
-        .filter(|p| frame_number(p).is_some_and(|n| n >= r.frames))
-        .collect();
-    if args.films.is_none() {
-        // The output is written; the hidden films have served.
-        match std::fs::remove_dir_all(&dir) {
-            Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
-                return Err(Error::RemoveFilms {
-                    path: dir.clone(),
-                    source: e,
-                });
-            }
-            _ => {}
+        Outcome::Interrupted(Interrupted::Finishing { dir }) => {
+            eprintln!(
+                "interrupted while finishing: every frame's film is kept in {}\n  run the same command again to finish",
+                dir.display()
+            );
+            return Err(Error::Cancelled);
         }
-    }
-    let times = Times {
-        render_secs,
-        finish_secs,
-        samples: this_run.samples,
-        frames: units.len(),
+        Outcome::Shard { render_secs, dir } => {
+            let (k, n) = job.shard;
+            eprintln!(
+                "rendered shard {k}/{n} in {render_secs:.2} s into {}",
+                dir.display()
+            );
+            eprintln!(
+                "  when all {n} shards are done: hyperslice merge {} -o {}",
+                dir.display(),
+                out.display()
+            );
+            return Ok(());
+        }
+        Outcome::Written(done) => done,
     };
-    summary(args, &scene, &set.stats, &times, &written);
+    summary(args, &job.scene, &done);
     if let Some(budget) = args.time_budget
-        && started.elapsed() > budget
+        && done.elapsed > budget
     {
         eprintln!(
             "warning: the time budget of {:.1} s is too short for one sample per pixel of every frame; the run took {:.1} s\n  hint: a smaller --size, fewer frames, or a longer budget",
             budget.as_secs_f64(),
-            started.elapsed().as_secs_f64()
+            done.elapsed.as_secs_f64()
         );
     }
-    report_stale(&stale, args.remove_stale, r.frames)
+    report_stale(&done.stale, args.remove_stale, r.frames);
+    Ok(())
 }
 
 /// Say which files were written.
@@ -778,29 +613,17 @@ fn report_written(written: &output::Written) {
     }
 }
 
-/// The frame number of a numbered file `stem_NNNN.ext`.
-fn frame_number(p: &Path) -> Option<u32> {
-    let stem = p.file_stem()?.to_str()?;
-    stem.rsplit_once('_')?.1.parse().ok()
-}
-
-/// Say which numbered frames of an earlier, longer render remain, or remove them.
-fn report_stale(stale: &[PathBuf], remove: bool, frames: u32) -> hyperslice::error::Result<()> {
+/// Say which numbered frames of an earlier, longer render remain, or that they were removed.
+fn report_stale(stale: &[PathBuf], removed: bool, frames: u32) {
     let (Some(first), Some(last)) = (stale.first(), stale.last()) else {
-        return Ok(());
+        return;
     };
     let span = if stale.len() == 1 {
         first.display().to_string()
     } else {
         format!("{} .. {}", first.display(), last.display())
     };
-    if remove {
-        for p in stale {
-            std::fs::remove_file(p).map_err(|source| hyperslice::output::OutputError::Io {
-                path: p.clone(),
-                source,
-            })?;
-        }
+    if removed {
         eprintln!(
             "removed {} from an earlier, longer render: {span}",
             plural(stale.len(), "frame")
@@ -811,32 +634,12 @@ fn report_stale(stale: &[PathBuf], remove: bool, frames: u32) -> hyperslice::err
             plural(stale.len(), "numbered file")
         );
     }
-    Ok(())
-}
-
-/// Samples per pixel of each unit (they are alike).
-fn part_samples(units: &[hyperslice::render::driver::Unit]) -> u64 {
-    units.first().map_or(0, |u| u.samples.len() as u64)
-}
-
-/// How long this run took, and for how much work.
-struct Times {
-    render_secs: f64,
-    finish_secs: f64,
-    /// Samples this run took (a resumed render took the others earlier).
-    samples: u64,
-    frames: usize,
 }
 
 /// What a finished render prints: times and rates of rendering and of finishing apart, the
-/// counts of all the work in the films (`s`), warnings, and the files.
-fn summary(
-    args: &RenderArgs,
-    scene: &Scene,
-    s: &hyperslice::render::integrator::Stats,
-    t: &Times,
-    written: &output::Written,
-) {
+/// counts of all the work in the films, warnings, and the files.
+fn summary(args: &RenderArgs, scene: &Scene, t: &Finished) {
+    let (s, written) = (&t.stats, &t.written);
     let r = &scene.render;
     let (render_secs, finish_secs) = (t.render_secs, t.finish_secs);
     let frames = t.frames.max(1) as f64;
@@ -1010,52 +813,55 @@ pub struct MergeArgs {
     fps: Option<f64>,
 }
 
+/// `hyperslice merge` on the terminal: what was found.
+struct Merging;
+
+impl Report for Merging {
+    fn merging(&mut self, set: &Films) {
+        let m = &set.meta;
+        let [k, n] = m.part.frames;
+        eprintln!(
+            "merging {}: {} x {}, frames {k}..{n} of {}, {} shard{} ({} film files), {} spp",
+            m.scene,
+            m.width,
+            m.height,
+            m.frames,
+            m.part.shard[1],
+            if m.part.shard[1] == 1 { "" } else { "s" },
+            set.frames.values().map(Vec::len).sum::<usize>(),
+            m.spp
+        );
+    }
+}
+
 /// `hyperslice merge`: check that the shards are all there, then finish them as one render
 /// on one machine would.
 pub fn merge(args: MergeArgs) -> hyperslice::error::Result<()> {
-    use hyperslice::farm::assemble;
     let start = Instant::now();
-    let set = assemble::Films::scan(&args.dirs)?;
-    let mut finish = assemble::Finish::of(&set.meta);
-    if let Some(d) = args.denoise {
-        finish.denoise = d.into();
-    }
-    if let Some(x) = args.exposure {
-        finish.output.exposure = x;
-    }
-    if let Some(x) = args.fps {
-        finish.output.fps = x;
-    }
-    let m = &set.meta;
-    let [k, n] = m.part.frames;
-    eprintln!(
-        "merging {}: {} x {}, frames {k}..{n} of {}, {} shard{} ({} film files), {} spp",
-        m.scene,
-        m.width,
-        m.height,
-        m.frames,
-        m.part.shard[1],
-        if m.part.shard[1] == 1 { "" } else { "s" },
-        set.frames.values().map(Vec::len).sum::<usize>(),
-        m.spp
-    );
-    let monitor = driver::Monitor {
-        progress: &|_| {},
-        cancel: Some(interrupted()),
+    let settings = MergeSettings {
+        denoise: args.denoise.map(Into::into),
+        exposure: args.exposure,
+        fps: args.fps,
     };
-    let written = assemble::assemble(&set, &finish, &args.output, monitor);
-    if let Err(hyperslice::Error::Cancelled) = written {
+    let merged = job::merge(
+        &args.dirs,
+        &args.output,
+        &settings,
+        &mut Merging,
+        Some(interrupted()),
+    );
+    if let Err(hyperslice::Error::Cancelled) = merged {
         eprintln!(
             "interrupted: no image was written and the films are untouched; run the same command again"
         );
     }
-    let written = written?;
+    let merged = merged?;
     eprintln!(
         "merged in {:.2} s ({} samples in the films)",
         start.elapsed().as_secs_f64(),
-        HumanCount(set.stats.samples)
+        HumanCount(merged.stats.samples)
     );
-    report_written(&written);
+    report_written(&merged.written);
     Ok(())
 }
 

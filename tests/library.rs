@@ -1,5 +1,5 @@
 //! The embedding API: a compile failure as an error, a render stopped from its progress
-//! callback, and frames written through the facade.
+//! callback, frames written through the facade, and a long render's job refusing bad input.
 
 use hyperslice::{Compilation, Error, Monitor, RenderOptions};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
@@ -81,4 +81,30 @@ fn rendered_frames_are_written_through_the_facade() {
         frames += 1;
     }
     assert_eq!(frames, 4);
+}
+
+#[test]
+fn a_job_refuses_frames_and_shards_outside_the_render() {
+    use hyperslice::farm::job::{Frames, Job};
+    let scene = Compilation::from_source("s.4ds", SCENE)
+        .into_scene()
+        .expect("compiles");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let job = Job::new(scene, "s.4ds", dir.path().join("out.png"));
+    let refused = |job: &Job| match job.run(&mut (), None) {
+        Err(Error::Usage(m)) => m,
+        other => panic!("not refused: {other:?}"),
+    };
+    let mut late = job.clone();
+    late.frames = Frames::Range("2..9".parse().expect("a range"));
+    assert!(
+        refused(&late).starts_with("frames 2..9 are not all in the animation: it has 4 frames")
+    );
+    let mut beyond = job.clone();
+    beyond.frames = Frames::One(4);
+    assert!(refused(&beyond).starts_with("frame 4 is not in the animation"));
+    let mut shard = job;
+    shard.shard = (2, 2);
+    assert!(refused(&shard).contains("shard 2/2 is not a part of a render"));
+    assert_eq!(std::fs::read_dir(dir.path()).expect("listed").count(), 0);
 }

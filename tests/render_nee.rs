@@ -17,8 +17,9 @@ mod common;
 use common::*;
 use glam::{DVec3, DVec4};
 use hyperslice::Compilation;
+use hyperslice::Rendered;
 use hyperslice::compile::Compiled;
-use hyperslice::render::driver::{Options, Rendered};
+use hyperslice::render::driver::Options;
 use hyperslice::render::frame::{Features, FrameScene};
 use hyperslice::render::lights::{
     ball_pdf, cap_area, cap_integral, cone_half_angle, sample_ball, sample_cone_theta,

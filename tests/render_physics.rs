@@ -9,8 +9,9 @@ mod common;
 
 use common::*;
 use glam::{DVec3, DVec4};
+use hyperslice::Rendered;
 use hyperslice::compile::Compiled;
-use hyperslice::render::driver::{self, Options, Rendered};
+use hyperslice::render::driver::{self, Options};
 use hyperslice::render::frame::{Features, FrameScene};
 use hyperslice::render::march::{Hit, Limits, Marcher, Ray};
 use hyperslice::render::sampler::SamplerKind;

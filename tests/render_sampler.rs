@@ -8,7 +8,8 @@
 mod common;
 
 use common::*;
-use hyperslice::render::driver::{Options, Rendered};
+use hyperslice::Rendered;
+use hyperslice::render::driver::Options;
 use hyperslice::render::sampler::SamplerKind;
 
 fn with(sampler: SamplerKind) -> Options {

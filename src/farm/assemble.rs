@@ -1,6 +1,7 @@
-//! Films into final frames: each frame's sample ranges summed, the frames denoised across
-//! neighbours, and encoded. A render on one machine and a merge of shards both end here, so
-//! they make the same bytes.
+//! The finishing stage. Films into final frames: each frame's sample ranges summed, the frames
+//! denoised across neighbours, and encoded. A render on one machine and a merge of shards both
+//! end here, so they make the same bytes. Frames rendered in memory are denoised here too
+//! ([`denoise_frames`]).
 
 use super::FilmMeta;
 use super::films::{self, file_name};
@@ -8,7 +9,7 @@ use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
 use crate::output::{self, OutputSettings, Written};
-use crate::render::driver::{Monitor, Unit};
+use crate::render::driver::{self, Monitor, Options, Unit};
 use crate::render::integrator::Stats;
 use crate::scene::Denoise;
 use std::collections::BTreeMap;
@@ -247,6 +248,14 @@ pub fn assemble(films: &Films, finish: &Finish, out: &Path, monitor: Monitor) ->
         }
     }
     Ok(sink.finish()?)
+}
+
+/// Denoise frames rendered in memory with `denoise`, across neighbouring frames as
+/// [`assemble`] does, on `options`' worker threads.
+pub fn denoise_frames(frames: &mut [Film], denoise: Denoise, options: &Options) -> Result<()> {
+    let opts = AtrousOptions::default();
+    driver::pool(options)?.install(|| crate::denoise::denoise(frames, denoise, &opts));
+    Ok(())
 }
 
 /// About how long finishing `frames` frames of a render with settings `r` into `out` will

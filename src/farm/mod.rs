@@ -7,9 +7,12 @@
 //!   keeps its work in, with a fingerprint of the scene and settings in every file.
 //! - [`assemble`]: films into final frames: sample ranges summed, denoised across frames, and
 //!   encoded, one frame at a time.
+//! - [`job`]: all of it in one call: a long render planned, resumed, rendered with
+//!   checkpoints until done or cancelled, and finished; shards merged.
 
 pub mod assemble;
 pub mod films;
+pub mod job;
 pub mod memory;
 pub mod plan;
 

@@ -11,6 +11,9 @@
 //! with a time budget, a pass starts only if it is expected to end within the frame's share of
 //! the budget; with a noise threshold, a pixel stops taking samples once its relative standard
 //! error is below it.
+//!
+//! The driver renders and keeps the work, nothing more: denoising and encoding the frames is
+//! the finishing stage ([`crate::farm::assemble`]).
 
 use super::frame::{Features, FrameScene};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
@@ -72,15 +75,6 @@ impl Default for Options {
             noise_threshold: None,
         }
     }
-}
-
-pub struct Rendered {
-    /// The frames, denoised with the scene's `denoise` filter.
-    pub frames: Vec<Film>,
-    pub stats: Stats,
-    /// Time spent denoising (part of `elapsed`).
-    pub denoise_time: Duration,
-    pub elapsed: Duration,
 }
 
 /// A piece of a render's work: samples `samples` of every pixel of frame `frame` (all of
@@ -267,25 +261,15 @@ pub struct Monitor<'a> {
 }
 
 impl Monitor<'_> {
+    /// Told nothing, never stopped.
+    pub const SILENT: Monitor<'static> = Monitor {
+        progress: &|_| {},
+        cancel: None,
+    };
+
     fn cancelled(&self) -> bool {
         self.cancel.is_some_and(|c| c.load(Ordering::Relaxed))
     }
-}
-
-/// Render every frame of `scene`; `progress` is told how many samples each piece of work took.
-pub fn render(
-    scene: &Scene,
-    options: &Options,
-    progress: &(dyn Fn(u64) + Sync),
-) -> Result<Rendered> {
-    render_monitored(
-        scene,
-        options,
-        Monitor {
-            progress,
-            cancel: None,
-        },
-    )
 }
 
 /// Every sample of every frame, as units.
@@ -299,27 +283,24 @@ pub fn whole(scene: &Scene) -> Vec<Unit> {
         .collect()
 }
 
-/// [`render`] in memory that the caller can also stop, through `monitor.cancel`.
-pub fn render_monitored(scene: &Scene, options: &Options, monitor: Monitor) -> Result<Rendered> {
-    let start = Instant::now();
+/// Every frame of `scene` rendered in memory: the films as the samples left them, and the
+/// counts of the work. Denoising is the finishing stage's ([`crate::farm::assemble`]).
+pub fn render_films(
+    scene: &Scene,
+    options: &Options,
+    monitor: Monitor,
+) -> Result<(Vec<Film>, Stats)> {
     let store = MemoryStore::default();
     let stats = render_units(scene, options, &whole(scene), &store, monitor)?;
     let r = &scene.render;
-    let mut frames: Vec<Film> = (store.into_map().into_values())
+    let frames = (store.into_map().into_values())
         .map(|p| Film::from_sums(r.width as usize, r.height as usize, &p.sums))
         .collect();
-    let denoise_start = Instant::now();
-    let opts = crate::denoise::AtrousOptions::default();
-    pool(options)?.install(|| crate::denoise::denoise(&mut frames, r.denoise, &opts));
-    Ok(Rendered {
-        frames,
-        stats,
-        denoise_time: denoise_start.elapsed(),
-        elapsed: start.elapsed(),
-    })
+    Ok((frames, stats))
 }
 
-fn pool(options: &Options) -> Result<rayon::ThreadPool> {
+/// The pool of `options.threads` worker threads.
+pub(crate) fn pool(options: &Options) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = options.threads {
         builder = builder.num_threads(n);

@@ -10,7 +10,7 @@ use super::median;
 use crate::Compilation;
 use crate::compile::Compiled;
 use crate::error::Result;
-use crate::render::driver::{self, Options};
+use crate::render::driver::{Monitor, Options};
 use crate::render::frame::{Features, FrameScene};
 use crate::render::march::MarcherKind;
 use crate::render::probe::Choice;
@@ -174,7 +174,7 @@ pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> 
                 marcher,
                 ..Options::default()
             };
-            let rendered = driver::render(scene, &options, &|_| {})?;
+            let rendered = crate::render(scene, &options, Monitor::SILENT)?;
             times[i].push(rendered.elapsed.as_secs_f64());
             out_of_steps[i] = rendered.stats.out_of_steps;
         }

@@ -13,7 +13,7 @@
 use super::{median, sig};
 use crate::Compilation;
 use crate::error::Result;
-use crate::render::driver::{self, Options};
+use crate::render::driver::{Monitor, Options};
 use crate::scene::{Denoise, Scene};
 use std::fmt::Write as _;
 
@@ -201,11 +201,11 @@ pub fn cost_curves(
             threads,
             ..Options::default()
         };
-        let first = driver::render(&scene, &options, &|_| {})?;
+        let first = crate::render(&scene, &options, Monitor::SILENT)?;
         let mut times = vec![first.elapsed.as_secs_f64()];
         for _ in 1..opts.repeats {
             times.push(
-                driver::render(&scene, &options, &|_| {})?
+                crate::render(&scene, &options, Monitor::SILENT)?
                     .elapsed
                     .as_secs_f64(),
             );

@@ -3,7 +3,7 @@
 use super::{Config, Reference, SweepError};
 use crate::error::Result;
 use crate::metrics::{self, ImageError};
-use crate::render::driver::{self, Options};
+use crate::render::driver::{Monitor, Options};
 use crate::scene::Scene;
 use glam::DVec3;
 
@@ -51,11 +51,11 @@ pub fn measure(
         sampler: config.sampler,
         ..Options::default()
     };
-    let rendered = driver::render(&scene, &options, &|_| {})?;
+    let rendered = crate::render(&scene, &options, Monitor::SILENT)?;
     let mut times = vec![rendered.elapsed.as_secs_f64()];
     for _ in 1..repeats {
         times.push(
-            driver::render(&scene, &options, &|_| {})?
+            crate::render(&scene, &options, Monitor::SILENT)?
                 .elapsed
                 .as_secs_f64(),
         );

@@ -3,7 +3,7 @@
 
 use super::{Config, SweepError};
 use crate::error::Result;
-use crate::render::driver::{self, Options};
+use crate::render::driver::{Monitor, Options};
 use crate::render::sampler::SamplerKind;
 use crate::scene::{Denoise, RenderSettings, Scene};
 use glam::DVec3;
@@ -78,7 +78,7 @@ pub fn render_reference(scene: &Scene, spp: u32, threads: Option<usize>) -> Resu
         sampler: SamplerKind::Random,
         ..Options::default()
     };
-    let rendered = driver::render(&scene, &options, &|_| {})?;
+    let rendered = crate::render(&scene, &options, Monitor::SILENT)?;
     let (mut sq, mut n) = (0.0, 0usize);
     for f in &rendered.frames {
         for e in &f.std_error {

@@ -5,7 +5,8 @@
 
 use glam::DVec3;
 use hyperslice::Compilation;
-use hyperslice::render::driver::{self, Options, Rendered};
+use hyperslice::Rendered;
+use hyperslice::render::driver::{Monitor, Options};
 use hyperslice::scene::Denoise;
 use rand::Rng;
 use rand_pcg::Pcg64Mcg;
@@ -143,7 +144,7 @@ pub fn render_with(src: &str, options: Options) -> Rendered {
     if !src.contains("denoise") {
         scene.render.denoise = Denoise::None;
     }
-    let r = driver::render(&scene, &options, &|_| {}).expect("rendered");
+    let r = hyperslice::render(&scene, &options, Monitor::SILENT).expect("rendered");
     assert!(r.elapsed < TIME_BOUND, "took {:?}", r.elapsed);
     for film in &r.frames {
         for c in &film.color {
