@@ -81,8 +81,10 @@ const WHOLE: Weights = Weights {
     bounded: 21.0,
 };
 
-/// The probe's outcome: what each marcher's march of it cost (the whole-tape march only as far
-/// as it went: it stops once it costs more than the cells').
+/// The probe's outcome: what each marcher's march of it cost (as far as they went: the
+/// whole-tape march stops once it costs more than the cells', and both stop once the camera
+/// or a hit is not resolved on the whole tape or the camera is found inside an object, where
+/// the frame keeps its cells in any case).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
     pub cells: Work,
@@ -135,6 +137,11 @@ impl Probe {
             resolved: epsilon_at(camera.position, limits.epsilon) <= limits.epsilon,
             inside: false,
         };
+        // The choice is cells whatever the marches would cost: stop as soon as it is made
+        // (the probe was up to a tenth of such a frame's render at the corpus's sizes).
+        if !probe.resolved {
+            return probe;
+        }
         let (mut marcher, mut hits) = (Marcher::default(), vec![]);
         let mut grad = Regs { r: vec![] };
         let mut all = vec![];
@@ -158,6 +165,9 @@ impl Probe {
             }
             if generation == 0 {
                 probe.inside = 2 * at_start > rays.len();
+                if probe.inside {
+                    return probe;
+                }
             }
             if generation == BOUNCES {
                 break;
@@ -167,6 +177,9 @@ impl Probe {
         // On the whole tape, an eighth of the rays at a time, and no more once that costs
         // more than the cells' march: the cells pay whatever the rest would cost, and a
         // whole-tape march of a dense union is most of what the probe would spend.
+        if !probe.resolved {
+            return probe;
+        }
         let cells_cost = probe.cells.cost(&CELLS);
         for k in 0..SHARES {
             let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
