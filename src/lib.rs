@@ -98,9 +98,11 @@ pub use render::driver::{Monitor, Options as RenderOptions};
 pub struct Rendered {
     /// The frames, denoised with the scene's `denoise` filter.
     pub frames: Vec<film::Film>,
+    /// Work counts summed over every frame: samples, distance evaluations, dropped samples.
     pub stats: render::integrator::Stats,
     /// Time spent denoising (part of `elapsed`).
     pub denoise_time: Duration,
+    /// Wall-clock time of the whole call, rendering and denoising.
     pub elapsed: Duration,
 }
 
@@ -154,9 +156,13 @@ impl std::default::Default for At {
 /// Everything one compilation produced: the loaded sources, the diagnostics of every stage,
 /// the root file's syntax tree and, when there were no errors, the typed scene.
 pub struct Compilation {
+    /// Every file loaded: the root file (or in-memory text) and what it imports; diagnostics' spans point into it.
     pub sources: SourceMap,
+    /// Errors and warnings of every stage, in the order the stages found them.
     pub diagnostics: Vec<Diagnostic>,
+    /// The root file's syntax tree, kept even when checking failed (for `--emit ast`).
     pub ast: syntax::ast::Ast,
+    /// The typed scene; `None` when parsing or checking failed.
     pub scene: Option<scene::Scene>,
     /// Every name use resolved to its definition, with its type: for editors.
     pub resolved: Vec<check::Resolved>,
@@ -216,10 +222,12 @@ impl Compilation {
         }
     }
 
+    /// Whether any diagnostic is an error (warnings alone leave the scene usable).
     pub fn has_errors(&self) -> bool {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }
 
+    /// Every diagnostic as the terminal shows it, with the source lines it points at; `color` adds ANSI colours.
     pub fn render_diagnostics(&self, color: bool) -> String {
         diagnostic::render_all(&self.diagnostics, &self.sources, color)
     }
