@@ -108,6 +108,35 @@ pub struct Rendered {
 
 /// Render every frame of `scene` in memory, telling `monitor` of progress and stopping when it
 /// says so, then denoise them with the scene's filter.
+///
+/// Fails with [`Error::Cancelled`] when `monitor`'s cancel flag is set, or [`Error::Threads`]
+/// when the worker threads cannot start.
+///
+/// ```
+/// use hyperslice::{Compilation, Monitor, RenderOptions};
+/// use std::sync::atomic::{AtomicU64, Ordering};
+///
+/// let source = r#"
+///     render { size = 8 x 6  frames = 2  spp = 1  denoise = "none" }
+///     sky = rgb(0.5, 0.7, 1)
+///     object ball { shape = hypersphere(1) }
+/// "#;
+/// let scene = Compilation::from_source("ball.4ds", source).into_scene()?;
+/// let taken = AtomicU64::new(0);
+/// let progress = |n: u64| {
+///     taken.fetch_add(n, Ordering::Relaxed);
+/// };
+/// let monitor = Monitor { progress: &progress, cancel: None };
+/// let rendered = hyperslice::render(&scene, &RenderOptions::default(), monitor)?;
+///
+/// assert_eq!(rendered.frames.len(), 2);
+/// let film = &rendered.frames[1];
+/// assert_eq!((film.width, film.height), (8, 6));
+/// assert!(film.color[0].z > 0.9); // the corner sees the blue sky
+/// assert_eq!(rendered.stats.samples, 2 * 8 * 6);
+/// assert_eq!(taken.load(Ordering::Relaxed), 2 * 8 * 6);
+/// # Ok::<(), hyperslice::Error>(())
+/// ```
 pub fn render(scene: &scene::Scene, options: &RenderOptions, monitor: Monitor) -> Result<Rendered> {
     let start = Instant::now();
     let (mut frames, stats) = render::driver::render_films(scene, options, monitor)?;
@@ -199,6 +228,26 @@ impl Compilation {
     }
 
     /// Compile text held in memory; imports resolve relative to the current directory.
+    ///
+    /// This never fails: a scene with mistakes comes back with its diagnostics and no typed
+    /// scene.
+    ///
+    /// ```
+    /// use hyperslice::Compilation;
+    ///
+    /// let source = "object ball { shape = hypersphere(radius: true) }";
+    /// let compilation = Compilation::from_source("bad.4ds", source);
+    /// assert!(compilation.has_errors());
+    /// assert!(compilation.scene.is_none());
+    /// let first = &compilation.diagnostics[0];
+    /// assert_eq!(first.code, "E0201"); // wrong type: a bool where a number is needed
+    /// let span = first.primary_span().unwrap();
+    /// assert_eq!(&compilation.sources.get(span.file).text[span.range()], "true");
+    /// assert!(compilation.render_diagnostics(false).contains("E0201"));
+    ///
+    /// let good = Compilation::from_source("good.4ds", &source.replace("true", "1"));
+    /// assert!(!good.has_errors() && good.scene.is_some());
+    /// ```
     pub fn from_source(name: &str, text: &str) -> Compilation {
         check::compile_source(name, text).into()
     }
