@@ -49,7 +49,8 @@ pub struct Frame {
 }
 
 impl Compiled {
-    /// Lower `scene` to IR once, and note each object's bounding sphere; frames are specialised from it with [`Compiled::frame`].
+    /// Lower `scene` to IR once, and note each object's bounding sphere; frames are specialised
+    /// from it with [`Compiled::frame`].
     pub fn new(scene: &Scene) -> Compiled {
         Compiled {
             ir: ir::lower(scene),

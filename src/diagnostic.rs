@@ -23,7 +23,8 @@ pub struct Label {
 }
 
 #[derive(Clone, Debug, PartialEq)]
-/// One message from the parser or the checker: a severity, a stable code, the spans it points at, and notes and a hint for fixing it.
+/// One message from the parser or the checker: a severity, a stable code, the spans it points at,
+/// and notes and a hint for fixing it.
 pub struct Diagnostic {
     /// Whether it stops the render.
     pub severity: Severity,

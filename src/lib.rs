@@ -185,7 +185,8 @@ impl std::default::Default for At {
 /// Everything one compilation produced: the loaded sources, the diagnostics of every stage,
 /// the root file's syntax tree and, when there were no errors, the typed scene.
 pub struct Compilation {
-    /// Every file loaded: the root file (or in-memory text) and what it imports; diagnostics' spans point into it.
+    /// Every file loaded: the root file (or in-memory text) and what it imports; diagnostics' spans
+    /// point into it.
     pub sources: SourceMap,
     /// Errors and warnings of every stage, in the order the stages found them.
     pub diagnostics: Vec<Diagnostic>,
@@ -276,7 +277,8 @@ impl Compilation {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }
 
-    /// Every diagnostic as the terminal shows it, with the source lines it points at; `color` adds ANSI colours.
+    /// Every diagnostic as the terminal shows it, with the source lines it points at; `color` adds
+    /// ANSI colours.
     pub fn render_diagnostics(&self, color: bool) -> String {
         diagnostic::render_all(&self.diagnostics, &self.sources, color)
     }

@@ -55,7 +55,8 @@ pub const LINE_BREAKS: [char; 7] = ['\r', '\n', '\x0B', '\x0C', '\u{85}', '\u{20
 pub struct SourceFile {
     /// The name diagnostics show: the path as given, or the name of in-memory text.
     pub name: String,
-    /// Where the file was read from; `None` for in-memory text (imports then resolve from the current directory).
+    /// Where the file was read from; `None` for in-memory text (imports then resolve from the
+    /// current directory).
     pub path: Option<PathBuf>,
     /// The whole file as loaded.
     pub text: String,

@@ -72,7 +72,8 @@ pub struct FilmMeta {
 pub struct Fingerprint {
     /// The SHA-256 of `description`, in hex: what every film header stores and is compared by.
     pub digest: String,
-    /// The text digested: hyperslice's version, the film format, the estimator's options and the scene as printed, with the settings that only finish frames set to their defaults.
+    /// The text digested: hyperslice's version, the film format, the estimator's options and the
+    /// scene as printed, with the settings that only finish frames set to their defaults.
     pub description: String,
 }
 
