@@ -89,7 +89,7 @@ impl SourceMap {
         FileId(self.files.len() as u32 - 1)
     }
 
-    /// The file with id `id`; panics if the id is not from this map.
+    /// The file with id `id`; panics if there is no such file.
     pub fn get(&self, id: FileId) -> &SourceFile {
         &self.files[id.0 as usize]
     }

@@ -58,7 +58,7 @@ pub struct FilmMeta {
     /// fingerprint, and `merge` may override them. The denoiser is stored by name; a name this
     /// hyperslice does not know makes the header unreadable.
     pub denoise: Denoise,
-    /// Exposure multiplier applied before tone mapping.
+    /// Exposure multiplier the frames are finished with.
     pub exposure: f64,
     /// Frames per second of an animated GIF.
     pub fps: f64,

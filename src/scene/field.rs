@@ -317,7 +317,7 @@ pub struct Fields {
 }
 
 impl Fields {
-    /// The node with id `id`; panics if it is not in this arena.
+    /// The node with id `id`; panics if there is no such node.
     pub fn get(&self, id: FieldId) -> &FieldNode {
         &self.nodes[id.0 as usize]
     }

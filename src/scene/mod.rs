@@ -64,7 +64,8 @@ pub struct RenderSettings {
     pub quality: Quality,
     /// Frames per second of an animated GIF, in `(0, 100]`.
     pub fps: f64,
-    /// Brightness multiplier applied before tone mapping, in `(0, 1e6]`.
+    /// Brightness multiplier of the output, in `(0, 1e6]`: radiance is scaled by it before tone
+    /// mapping (GIF, PNG) or storing (EXR).
     pub exposure: f64,
     /// Worker threads; 0 uses every core.
     pub threads: u32,
