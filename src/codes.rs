@@ -4,6 +4,7 @@
 
 /// One diagnostic code.
 pub struct Code {
+    /// The code itself, `E` or `W` and four digits, e.g. `E0201`.
     pub code: &'static str,
     /// The short meaning, as the docs table gives it.
     pub meaning: &'static str,
@@ -34,6 +35,7 @@ macro_rules! code {
     };
 }
 
+/// Every diagnostic code the language has, with its explanation and examples.
 pub const CODES: &[Code] = &[
     code!(
         "E0001",

@@ -29,14 +29,18 @@ pub struct Compiled {
 pub struct LightPlacement {
     /// The object's index in the scene.
     pub object: usize,
+    /// The light's centre in world space, at this frame.
     pub center: [f64; 4],
+    /// The light's radius in world units (positive and finite).
     pub radius: f64,
 }
 
 /// Everything compiled for one frame.
 #[derive(Clone, Debug)]
 pub struct Frame {
+    /// The animation time folded into this frame's tapes: 0 on the first frame, 1 on the last.
     pub t: f64,
+    /// The tapes this frame renders with: the scene's distance, its interior and each object's.
     pub program: Program,
     /// The camera's `look` rotations with their angles at `t`.
     pub look: Vec<(Plane, f64)>,
@@ -45,6 +49,8 @@ pub struct Frame {
 }
 
 impl Compiled {
+    /// Lower `scene` to IR once, and note each object's bounding sphere; frames are specialised
+    /// from it with [`Compiled::frame`].
     pub fn new(scene: &Scene) -> Compiled {
         Compiled {
             ir: ir::lower(scene),

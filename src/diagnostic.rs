@@ -5,31 +5,43 @@ use ariadne::{CharSet, Config, IndexType, Label as ALabel, Report, ReportKind};
 use std::fmt;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
+/// How bad a diagnostic is: an error stops the scene from rendering, a warning does not.
 pub enum Severity {
+    /// Suspicious but renderable; the scene still compiles.
     Warning,
+    /// The scene cannot be rendered; [`crate::Compilation::into_scene`] fails.
     Error,
 }
 
 /// A labelled span. The primary label is the one the report is anchored at.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Label {
+    /// The source range the label underlines.
     pub span: Span,
+    /// The text shown next to the underline.
     pub message: String,
 }
 
 #[derive(Clone, Debug, PartialEq)]
+/// One message from the parser or the checker: a severity, a stable code, the spans it points at,
+/// and notes and a hint for fixing it.
 pub struct Diagnostic {
+    /// Whether it stops the render.
     pub severity: Severity,
     /// Stable code, e.g. `E0201`; `docs/language.md` lists them all.
     pub code: &'static str,
+    /// The one-line headline, without the code.
     pub message: String,
     /// The first label is the primary one.
     pub labels: Vec<Label>,
+    /// Extra lines shown under the report (`= note: ...`).
     pub notes: Vec<String>,
+    /// The suggested fix (`= help: ...`), when there is one.
     pub help: Option<String>,
 }
 
 impl Diagnostic {
+    /// A new error with `code` and headline `message`, with no labels yet.
     pub fn error(code: &'static str, message: impl Into<String>) -> Self {
         Diagnostic {
             severity: Severity::Error,
@@ -41,6 +53,7 @@ impl Diagnostic {
         }
     }
 
+    /// A new warning with `code` and headline `message`, with no labels yet.
     pub fn warning(code: &'static str, message: impl Into<String>) -> Self {
         Diagnostic {
             severity: Severity::Warning,
@@ -48,6 +61,7 @@ impl Diagnostic {
         }
     }
 
+    /// Add a label under `span`; the first one added is the primary label.
     pub fn label(mut self, span: Span, message: impl Into<String>) -> Self {
         self.labels.push(Label {
             span,
@@ -56,11 +70,13 @@ impl Diagnostic {
         self
     }
 
+    /// Add a note line.
     pub fn note(mut self, note: impl Into<String>) -> Self {
         self.notes.push(note.into());
         self
     }
 
+    /// Set the hint, replacing any earlier one.
     pub fn help(mut self, help: impl Into<String>) -> Self {
         self.help = Some(help.into());
         self
@@ -74,10 +90,12 @@ impl Diagnostic {
         }
     }
 
+    /// Whether this diagnostic stops the scene from compiling.
     pub fn is_error(&self) -> bool {
         self.severity == Severity::Error
     }
 
+    /// Where the diagnostic is anchored: its first label's span, if it has one.
     pub fn primary_span(&self) -> Option<Span> {
         self.labels.first().map(|l| l.span)
     }

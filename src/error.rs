@@ -20,8 +20,11 @@ pub enum Error {
         crate::diagnostic::render_all(.diagnostics, .sources, false)
     )]
     Compile {
+        /// The scene's name: its root file, or what generated it.
         scene: String,
+        /// Every diagnostic, warnings included.
         diagnostics: Vec<crate::diagnostic::Diagnostic>,
+        /// The files the diagnostics' spans point into.
         sources: crate::source::SourceMap,
     },
 
@@ -40,7 +43,9 @@ pub enum Error {
     /// A render's hidden film directory could not be removed after its output was written.
     #[error("cannot remove the films in `{}` after writing the output: {source}", .path.display())]
     RemoveFilms {
+        /// The film directory.
         path: PathBuf,
+        /// Why removing it failed.
         #[source]
         source: std::io::Error,
     },
@@ -51,7 +56,13 @@ pub enum Error {
 
     /// A film file's header is not what a film of this render holds.
     #[error("cannot use film `{}`: {message}", .path.display())]
-    FilmHeader { path: PathBuf, message: String },
+    FilmHeader {
+        /// The film file.
+        path: PathBuf,
+        /// Why: an unreadable header, another format version, or a size or frame that disagrees
+        /// with the file.
+        message: String,
+    },
 
     /// A film was rendered from another scene or other settings.
     #[error(
@@ -59,34 +70,48 @@ pub enum Error {
         .path.display()
     )]
     FilmMismatch {
+        /// The film file.
         path: PathBuf,
+        /// What differs, as this render has it.
         ours: String,
+        /// What differs, as the film was rendered with it.
         theirs: String,
     },
 
     /// A film directory could not be listed.
     #[error("cannot read film directory `{}`: {source}", .path.display())]
     ReadFilms {
+        /// The directory.
         path: PathBuf,
+        /// Why listing it failed.
         #[source]
         source: std::io::Error,
     },
 
     /// There are no films to merge.
     #[error("no film files (frame_*.exr) in {}", .dirs.iter().map(|d| format!("`{}`", d.display())).collect::<Vec<_>>().join(", "))]
-    NoFilms { dirs: Vec<PathBuf> },
+    NoFilms {
+        /// The directories searched.
+        dirs: Vec<PathBuf>,
+    },
 
     /// The same unit's film is in two of the directories merged.
     #[error("`{name}` is both in `{}` and in `{}`; merge each shard's films once", .first.display(), .second.display())]
     MergeDuplicate {
+        /// The film's file name, e.g. `frame_0003.exr`.
         name: String,
+        /// The first directory that holds it.
         first: PathBuf,
+        /// The second directory that holds it.
         second: PathBuf,
     },
 
     /// Shards are missing or unfinished.
     #[error("the shards are not complete:\n  {}", .problems.join("\n  "))]
-    MergeIncomplete { problems: Vec<String> },
+    MergeIncomplete {
+        /// One line per missing or partial unit or shard.
+        problems: Vec<String>,
+    },
 
     /// Writing a file failed (frames, films, results or the plot).
     #[error(transparent)]
@@ -95,7 +120,9 @@ pub enum Error {
     /// A directory could not be created.
     #[error("cannot create directory `{}`: {source}", .path.display())]
     CreateDirectory {
+        /// The directory.
         path: PathBuf,
+        /// Why creating it failed.
         #[source]
         source: std::io::Error,
     },

@@ -5,8 +5,11 @@
 /// One linear-HDR frame, row-major from the top-left pixel, RGB radiance.
 #[derive(Clone, Debug, PartialEq)]
 pub struct HdrImage {
+    /// Width in pixels.
     pub width: usize,
+    /// Height in pixels.
     pub height: usize,
+    /// `width * height` pixels of linear RGB radiance, before exposure.
     pub data: Vec<[f32; 3]>,
 }
 

@@ -98,14 +98,45 @@ pub use render::driver::{Monitor, Options as RenderOptions};
 pub struct Rendered {
     /// The frames, denoised with the scene's `denoise` filter.
     pub frames: Vec<film::Film>,
+    /// Work counts summed over every frame: samples, distance evaluations, dropped samples.
     pub stats: render::integrator::Stats,
     /// Time spent denoising (part of `elapsed`).
     pub denoise_time: Duration,
+    /// Wall-clock time of the whole call, rendering and denoising.
     pub elapsed: Duration,
 }
 
 /// Render every frame of `scene` in memory, telling `monitor` of progress and stopping when it
 /// says so, then denoise them with the scene's filter.
+///
+/// Fails with [`Error::Cancelled`] when `monitor`'s cancel flag is set, or [`Error::Threads`]
+/// when the worker threads cannot start.
+///
+/// ```
+/// use hyperslice::{Compilation, Monitor, RenderOptions};
+/// use std::sync::atomic::{AtomicU64, Ordering};
+///
+/// let source = r#"
+///     render { size = 8 x 6  frames = 2  spp = 1  denoise = "none" }
+///     sky = rgb(0.5, 0.7, 1)
+///     object ball { shape = hypersphere(1) }
+/// "#;
+/// let scene = Compilation::from_source("ball.4ds", source).into_scene()?;
+/// let taken = AtomicU64::new(0);
+/// let progress = |n: u64| {
+///     taken.fetch_add(n, Ordering::Relaxed);
+/// };
+/// let monitor = Monitor { progress: &progress, cancel: None };
+/// let rendered = hyperslice::render(&scene, &RenderOptions::default(), monitor)?;
+///
+/// assert_eq!(rendered.frames.len(), 2);
+/// let film = &rendered.frames[1];
+/// assert_eq!((film.width, film.height), (8, 6));
+/// assert!(film.color[0].z > 0.9); // the corner sees the blue sky
+/// assert_eq!(rendered.stats.samples, 2 * 8 * 6);
+/// assert_eq!(taken.load(Ordering::Relaxed), 2 * 8 * 6);
+/// # Ok::<(), hyperslice::Error>(())
+/// ```
 pub fn render(scene: &scene::Scene, options: &RenderOptions, monitor: Monitor) -> Result<Rendered> {
     let start = Instant::now();
     let (mut frames, stats) = render::driver::render_films(scene, options, monitor)?;
@@ -154,9 +185,14 @@ impl std::default::Default for At {
 /// Everything one compilation produced: the loaded sources, the diagnostics of every stage,
 /// the root file's syntax tree and, when there were no errors, the typed scene.
 pub struct Compilation {
+    /// Every file loaded: the root file (or in-memory text) and what it imports; diagnostics' spans
+    /// point into it.
     pub sources: SourceMap,
+    /// Errors and warnings of every stage, in the order the stages found them.
     pub diagnostics: Vec<Diagnostic>,
+    /// The root file's syntax tree, kept even when checking failed (for `--emit ast`).
     pub ast: syntax::ast::Ast,
+    /// The typed scene; `None` when parsing or checking failed.
     pub scene: Option<scene::Scene>,
     /// Every name use resolved to its definition, with its type: for editors.
     pub resolved: Vec<check::Resolved>,
@@ -193,6 +229,26 @@ impl Compilation {
     }
 
     /// Compile text held in memory; imports resolve relative to the current directory.
+    ///
+    /// This never fails: a scene with mistakes comes back with its diagnostics and no typed
+    /// scene.
+    ///
+    /// ```
+    /// use hyperslice::Compilation;
+    ///
+    /// let source = "object ball { shape = hypersphere(radius: true) }";
+    /// let compilation = Compilation::from_source("bad.4ds", source);
+    /// assert!(compilation.has_errors());
+    /// assert!(compilation.scene.is_none());
+    /// let first = &compilation.diagnostics[0];
+    /// assert_eq!(first.code, "E0201"); // wrong type: a bool where a number is needed
+    /// let span = first.primary_span().unwrap();
+    /// assert_eq!(&compilation.sources.get(span.file).text[span.range()], "true");
+    /// assert!(compilation.render_diagnostics(false).contains("E0201"));
+    ///
+    /// let good = Compilation::from_source("good.4ds", &source.replace("true", "1"));
+    /// assert!(!good.has_errors() && good.scene.is_some());
+    /// ```
     pub fn from_source(name: &str, text: &str) -> Compilation {
         check::compile_source(name, text).into()
     }
@@ -216,10 +272,13 @@ impl Compilation {
         }
     }
 
+    /// Whether any diagnostic is an error (warnings alone leave the scene usable).
     pub fn has_errors(&self) -> bool {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }
 
+    /// Every diagnostic as the terminal shows it, with the source lines it points at; `color` adds
+    /// ANSI colours.
     pub fn render_diagnostics(&self, color: bool) -> String {
         diagnostic::render_all(&self.diagnostics, &self.sources, color)
     }

@@ -9,12 +9,16 @@ pub struct FileId(pub u32);
 /// A byte range in one source file.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub struct Span {
+    /// The file the range is in.
     pub file: FileId,
+    /// Byte offset of the first byte.
     pub start: u32,
+    /// Byte offset one past the last byte.
     pub end: u32,
 }
 
 impl Span {
+    /// The range `start..end` of `file`, in bytes (offsets are stored as `u32`).
     pub fn new(file: FileId, start: usize, end: usize) -> Self {
         Span {
             file,
@@ -35,6 +39,7 @@ impl Span {
         }
     }
 
+    /// The byte range, for slicing the file's text.
     pub fn range(self) -> std::ops::Range<usize> {
         self.start as usize..self.end as usize
     }
@@ -48,8 +53,12 @@ pub const LINE_BREAKS: [char; 7] = ['\r', '\n', '\x0B', '\x0C', '\u{85}', '\u{20
 /// One loaded file: its display name, its directory for relative imports, and its text.
 #[derive(Debug, Clone)]
 pub struct SourceFile {
+    /// The name diagnostics show: the path as given, or the name of in-memory text.
     pub name: String,
+    /// Where the file was read from; `None` for in-memory text (imports then resolve from the
+    /// current directory).
     pub path: Option<PathBuf>,
+    /// The whole file as loaded.
     pub text: String,
 }
 
@@ -60,10 +69,12 @@ pub struct SourceMap {
 }
 
 impl SourceMap {
+    /// An empty map.
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// Add a file and return its id; ids count up from 0 in the order files are added.
     pub fn add(
         &mut self,
         name: impl Into<String>,
@@ -78,10 +89,12 @@ impl SourceMap {
         FileId(self.files.len() as u32 - 1)
     }
 
+    /// The file with id `id`; panics if there is no such file.
     pub fn get(&self, id: FileId) -> &SourceFile {
         &self.files[id.0 as usize]
     }
 
+    /// Every file with its id, in the order they were added (the root file first).
     pub fn files(&self) -> impl Iterator<Item = (FileId, &SourceFile)> {
         self.files
             .iter()

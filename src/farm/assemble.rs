@@ -184,7 +184,9 @@ impl Films {
 /// How films are finished into images.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Finish {
+    /// The filter run over the summed frames.
     pub denoise: Denoise,
+    /// Exposure and frame rate for encoding.
     pub output: OutputSettings,
 }
 

@@ -28,7 +28,9 @@ pub fn file_name(unit: &Unit, spp: u32) -> String {
 /// What a film directory holds of a render's units.
 #[derive(Debug, Default)]
 pub struct Survey {
+    /// Units whose film is finished.
     pub complete: usize,
+    /// Units with a film that holds some passes but not all.
     pub partial: usize,
     /// The finished units.
     pub finished: Vec<Unit>,
@@ -84,10 +86,12 @@ impl FilmDir {
         })
     }
 
+    /// The directory the films are kept in.
     pub fn dir(&self) -> &Path {
         &self.dir
     }
 
+    /// The path of `unit`'s film in this directory (whether or not it exists yet).
     pub fn path_of(&self, unit: &Unit) -> PathBuf {
         self.dir.join(file_name(unit, self.spp))
     }

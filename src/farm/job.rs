@@ -111,12 +111,14 @@ pub struct Job {
     /// Where the films are kept. `None`: in a hidden directory beside the output, removed once
     /// the output is written.
     pub films: Option<PathBuf>,
+    /// Which frames of the animation to render (numbered frames keep their numbers).
     pub frames: Frames,
     /// `(k, n)`: the k-th (0-based) of n parts of the work, for several machines; `(0, 1)` is
     /// all of it. Whole frames when there are at least n frames, otherwise sample ranges of
     /// every frame. A part of several never writes the output: [`merge`] puts the parts' films
     /// together.
     pub shard: (u32, u32),
+    /// What to do with films an earlier run left.
     pub resume: Resume,
     /// Remove numbered frames beyond the animation's last that an earlier, longer render left
     /// beside the output (otherwise they are only reported).
@@ -152,9 +154,11 @@ pub struct Start<'a> {
     pub frames: Range<u32>,
     /// ... as the job names them: its [`FrameRange`], or `A..=B`.
     pub asked: &'a str,
+    /// The part of the render this job is (its frames and its shard).
     pub part: Part,
     /// The units of this part, and what earlier runs left of them.
     pub units: &'a [Unit],
+    /// What earlier runs left of `units` in the film directory.
     pub earlier: &'a Survey,
     /// Samples left to take (at most, when the render is progressive).
     pub samples: u64,
@@ -171,7 +175,12 @@ pub enum Outcome {
     Interrupted(Interrupted),
     /// This shard's units are rendered into `dir` in `render_secs` seconds; once every shard's
     /// are, [`merge`] makes the output.
-    Shard { render_secs: f64, dir: PathBuf },
+    Shard {
+        /// Seconds this run spent rendering.
+        render_secs: f64,
+        /// The film directory the shard's films are in.
+        dir: PathBuf,
+    },
     /// The output is written.
     Written(Finished),
 }
@@ -182,22 +191,31 @@ pub enum Interrupted {
     /// While rendering, after `render_secs` seconds: `complete` of the `units` units are
     /// finished and `partial` part-done, kept in `dir`.
     Rendering {
+        /// Seconds this run spent rendering.
         render_secs: f64,
+        /// Units whose film is finished.
         complete: usize,
+        /// Units with some passes kept but not all.
         partial: usize,
+        /// Units of this job in all.
         units: usize,
+        /// The film directory the work is kept in.
         dir: PathBuf,
     },
     /// While finishing: every unit's film is kept in `dir` (numbered frames already written
     /// stay; no partial GIF is left).
-    Finishing { dir: PathBuf },
+    Finishing {
+        /// The film directory, every unit's film in it.
+        dir: PathBuf,
+    },
 }
 
 /// A finished job.
 #[derive(Debug)]
 pub struct Finished {
-    /// Seconds rendering and finishing took in this run.
+    /// Seconds rendering took in this run.
     pub render_secs: f64,
+    /// Seconds finishing (denoising and encoding) took in this run.
     pub finish_secs: f64,
     /// Samples this run took (a resumed render took the others earlier).
     pub samples: u64,
@@ -205,6 +223,7 @@ pub struct Finished {
     pub frames: usize,
     /// The counts of all the work in the films.
     pub stats: Stats,
+    /// The files written and, for a GIF, its quality.
     pub written: Written,
     /// Numbered frames beyond the animation's last that an earlier, longer render left beside
     /// the output: removed when the job says `remove_stale`, otherwise still there.
@@ -501,8 +520,11 @@ impl Job {
 /// rendered with.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MergeSettings {
+    /// The filter to finish with instead of the rendered scene's.
     pub denoise: Option<Denoise>,
+    /// The exposure multiplier instead of the scene's.
     pub exposure: Option<f64>,
+    /// The GIF frame rate instead of the scene's.
     pub fps: Option<f64>,
 }
 
@@ -511,6 +533,7 @@ pub struct MergeSettings {
 pub struct Merged {
     /// The counts of all the work in the films.
     pub stats: Stats,
+    /// The files written and, for a GIF, its quality.
     pub written: Written,
 }
 
@@ -518,6 +541,48 @@ pub struct Merged {
 /// into `out` as the render on one machine would (the same bytes), telling `report` what was
 /// found and of each frame finished. Stopped by `cancel`, this returns [`Error::Cancelled`]:
 /// no partial GIF is left and the films are untouched.
+///
+/// # Example
+///
+/// Render a two-frame animation as two shards (one frame each, as two machines would), then
+/// merge their films into the frames one machine makes.
+///
+/// ```
+/// use hyperslice::Compilation;
+/// use hyperslice::farm::job::{Job, MergeSettings, Outcome, merge};
+///
+/// let source = r#"
+///     render { size = 8 x 8  frames = 2  spp = 1  denoise = "none" }
+///     sky = rgb(1)
+///     object ball { shape = hypersphere(1) }
+/// "#;
+/// let scene = Compilation::from_source("ball.4ds", source).into_scene()?;
+/// let dir = std::env::temp_dir().join(format!("hyperslice-merge-doc-{}", std::process::id()));
+/// std::fs::create_dir_all(&dir)?;
+///
+/// let mut shards = Vec::new();
+/// for k in 0..2 {
+///     let mut job = Job::new(scene.clone(), "ball.4ds", dir.join("ball.exr"));
+///     job.films = Some(dir.join(format!("shard{k}")));
+///     job.shard = (k, 2);
+///     let Outcome::Shard { dir, .. } = job.run(&mut (), None)? else { panic!("not a shard") };
+///     shards.push(dir);
+/// }
+/// assert!(!dir.join("ball_0000.exr").exists()); // shards never write the output
+///
+/// let merged = merge(&shards, &dir.join("ball.exr"), &MergeSettings::default(), &mut (), None)?;
+/// assert_eq!(merged.written.files.len(), 2);
+/// assert_eq!(merged.stats.samples, 2 * 8 * 8);
+///
+/// // The same bytes as the render on one machine.
+/// Job::new(scene, "ball.4ds", dir.join("straight.exr")).run(&mut (), None)?;
+/// for f in ["0000", "0001"] {
+///     let merged = std::fs::read(dir.join(format!("ball_{f}.exr")))?;
+///     assert_eq!(merged, std::fs::read(dir.join(format!("straight_{f}.exr")))?);
+/// }
+/// std::fs::remove_dir_all(&dir)?;
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn merge(
     dirs: &[PathBuf],
     out: &Path,

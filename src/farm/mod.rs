@@ -28,6 +28,7 @@ const FORMAT: u32 = 1;
 /// What a film file holds, stored as JSON in its header.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FilmMeta {
+    /// The film format version; a film of another version is refused, not misread.
     pub format: u32,
     /// A digest of everything that decides the film's pixels (see [`Fingerprint`]).
     pub fingerprint: String,
@@ -35,6 +36,7 @@ pub struct FilmMeta {
     pub description: String,
     /// The scene file's name, for messages.
     pub scene: String,
+    /// The frame this film belongs to (0-based).
     pub frame: u32,
     /// Frames of the whole animation.
     pub frames: u32,
@@ -42,10 +44,13 @@ pub struct FilmMeta {
     pub samples: [u32; 2],
     /// Samples per pixel of the whole render.
     pub spp: u32,
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Every pass ran: the film is final.
     pub complete: bool,
+    /// The work counts of the samples in this film (summed when films are merged).
     pub stats: Stats,
     /// The part of the render this film belongs to (what `merge` checks is all there).
     pub part: plan::Part,
@@ -53,7 +58,9 @@ pub struct FilmMeta {
     /// fingerprint, and `merge` may override them. The denoiser is stored by name; a name this
     /// hyperslice does not know makes the header unreadable.
     pub denoise: Denoise,
+    /// Exposure multiplier the frames are finished with.
     pub exposure: f64,
+    /// Frames per second of an animated GIF.
     pub fps: f64,
 }
 
@@ -63,11 +70,15 @@ pub struct FilmMeta {
 /// frame rate, threads or the budget's length, which only finish or pace the samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Fingerprint {
+    /// The SHA-256 of `description`, in hex: what every film header stores and is compared by.
     pub digest: String,
+    /// The text digested: hyperslice's version, the film format, the estimator's options and the
+    /// scene as printed, with the settings that only finish frames set to their defaults.
     pub description: String,
 }
 
 impl Fingerprint {
+    /// The fingerprint of rendering `scene` with `options`.
     pub fn of(scene: &Scene, options: &Options) -> Fingerprint {
         let mut s = scene.clone();
         let r = &mut s.render;

@@ -8,11 +8,14 @@ use std::ops::Range;
 /// `shard[1]` of them (`[0, 1]`: all of them).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Part {
+    /// The frames `[start, end)` of the render, in animation frame numbers.
     pub frames: [u32; 2],
+    /// `[k, n]`: the k-th (0-based) of n shards.
     pub shard: [u32; 2],
 }
 
 impl Part {
+    /// The part of `frames` that shard `shard.0` of `shard.1` takes.
     pub fn new(frames: Range<u32>, shard: (u32, u32)) -> Part {
         Part {
             frames: [frames.start, frames.end],
@@ -20,6 +23,7 @@ impl Part {
         }
     }
 
+    /// The part's frames as a range.
     pub fn frames(&self) -> Range<u32> {
         self.frames[0]..self.frames[1]
     }

@@ -69,7 +69,9 @@ fn unflatten(v: [f64; 18], samples: u32) -> PixelSums {
 pub struct FilmFile {
     /// What the film holds, as JSON (see `farm::FilmMeta`).
     pub header: String,
+    /// Width in pixels.
     pub width: usize,
+    /// Height in pixels.
     pub height: usize,
     /// Row-major from the top-left pixel.
     pub sums: Vec<PixelSums>,
@@ -78,10 +80,22 @@ pub struct FilmFile {
 /// Why a film file could not be read or made.
 #[derive(Debug, thiserror::Error)]
 pub enum FilmError {
+    /// The file could not be read or written as OpenEXR (missing, truncated, not EXR).
     #[error("`{path}` is not a readable OpenEXR file: {message}")]
-    Exr { path: String, message: String },
+    Exr {
+        /// The film file, as displayed.
+        path: String,
+        /// The EXR library's or the file system's reason.
+        message: String,
+    },
+    /// The file is OpenEXR but lacks a film's header or channels.
     #[error("`{path}` is not a hyperslice film: {message}")]
-    NotAFilm { path: String, message: String },
+    NotAFilm {
+        /// The film file, as displayed.
+        path: String,
+        /// What is missing or malformed.
+        message: String,
+    },
 }
 
 /// The bytes of a film file of `width` x `height` pixels' `sums` with the caller's JSON

@@ -12,17 +12,25 @@ use glam::{DVec3, DVec4};
 /// The sums one pixel accumulates over its samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PixelSums {
+    /// Sum of the samples' radiance (linear RGB).
     pub radiance: DVec3,
     /// Sum of squared radiance, for the per-pixel standard error.
     pub radiance_sq: DVec3,
+    /// Sum of the albedo of the first surface each sample hit (zero where it saw the sky).
     pub albedo: DVec3,
+    /// Sum of the 4D unit normals at the first hits.
     pub normal: DVec4,
+    /// Sum of the 4D world positions of the first hits.
     pub position: DVec4,
+    /// Sum of the distances along the camera ray to the first hits.
     pub depth: f64,
+    /// Samples accumulated: the divisor that turns the sums into means.
     pub samples: u32,
 }
 
 impl PixelSums {
+    /// Count one more sample with radiance `l`; the first-hit sums are added by the integrator
+    /// itself.
     pub fn add_radiance(&mut self, l: DVec3) {
         self.radiance += l;
         self.radiance_sq += l * l;
@@ -44,20 +52,29 @@ impl PixelSums {
 /// One rendered frame, every buffer holding per-pixel means, row-major from the top left.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
+    /// Width in pixels.
     pub width: usize,
+    /// Height in pixels.
     pub height: usize,
+    /// Mean radiance per pixel, linear RGB (1.0 is a white sky seen directly), before exposure and
+    /// tone mapping.
     pub color: Vec<DVec3>,
     /// Standard error of each pixel's mean radiance.
     pub std_error: Vec<DVec3>,
+    /// Mean first-hit albedo, a denoising guide.
     pub albedo: Vec<DVec3>,
+    /// Mean first-hit 4D normal (not renormalised), a denoising guide.
     pub normal: Vec<DVec4>,
+    /// Mean first-hit 4D world position, a denoising guide.
     pub position: Vec<DVec4>,
+    /// Mean distance to the first hit, in world units.
     pub depth: Vec<f64>,
     /// Samples each pixel took (they differ under adaptive sampling).
     pub samples: Vec<u32>,
 }
 
 impl Film {
+    /// A black film of `width` x `height` pixels with every buffer zero.
     pub fn new(width: usize, height: usize) -> Film {
         let n = width * height;
         Film {

@@ -29,12 +29,17 @@ use std::path::Path;
 /// The output format, chosen from the file extension (`.gif`, `.png`, `.exr`; case-insensitive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Format {
+    /// One animated, looping GIF of all frames, tone-mapped, quantised and dithered to 256 colours.
     Gif,
+    /// Tone-mapped 8-bit frames, numbered when there are several.
     Png,
+    /// Linear 32-bit float RGB frames, numbered when there are several.
     Exr,
 }
 
 impl Format {
+    /// The format `path`'s extension names; fails with [`OutputError::UnknownFormat`] or
+    /// [`OutputError::NoExtension`].
     pub fn from_path(path: &Path) -> Result<Format, OutputError> {
         let ext = path.extension().map(|e| e.to_string_lossy().into_owned());
         match ext.as_deref().map(str::to_ascii_lowercase).as_deref() {

@@ -12,6 +12,7 @@ use tempfile::{NamedTempFile, TempPath};
 /// What was written, for the summary the CLI prints.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Written {
+    /// Every file written, in frame order.
     pub files: Vec<PathBuf>,
     /// GIF only: PSNR (dB) of the quantised, dithered GIF frames against the 8-bit tone-mapped
     /// frames (mean over frames; frames kept exactly count as infinite and are left out of the

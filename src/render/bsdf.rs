@@ -54,6 +54,7 @@ fn mirror_direction(wi: DVec4) -> DVec4 {
 /// angle in 4D is `4 pi / 3`, so the 3D `rho / pi` would be 33% too bright.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lambert {
+    /// Reflectance per channel, 0 to 1.
     pub albedo: DVec3,
 }
 
@@ -92,6 +93,7 @@ impl Bsdf for Lambert {
 /// A perfect mirror that multiplies by `tint` (a constant reflectance).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Mirror {
+    /// Reflectance per channel, 0 to 1.
     pub tint: DVec3,
 }
 
@@ -125,6 +127,7 @@ impl Bsdf for Mirror {
 /// light side (entering glass of index 1.5 from air: `1 / 1.5^3`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Dielectric {
+    /// Index of refraction of the inside relative to the outside (1.5 for glass in air).
     pub ior: f64,
 }
 
@@ -177,7 +180,9 @@ impl Bsdf for Dielectric {
 /// Fresnel at `wi.w`), so roughness 0 never divides by zero.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ggx {
+    /// GGX roughness, `roughness^2`; 0 is a perfect mirror.
     pub alpha: f64,
+    /// Reflectance at normal incidence per channel (Schlick's `F0`).
     pub color: DVec3,
 }
 

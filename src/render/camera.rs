@@ -8,7 +8,9 @@ use crate::scene::Camera;
 use glam::DVec4;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
+/// The camera of one frame, its position and axes evaluated at that frame's `t`.
 pub struct FrameCamera {
+    /// Where rays start, in world space.
     pub position: DVec4,
     /// Right, up, forward and the fourth axis (the slice's normal).
     pub axes: [DVec4; 4],

@@ -81,7 +81,9 @@ impl Default for Options {
 /// `0..spp`, unless the render is split across machines by samples).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Unit {
+    /// The frame (0-based).
     pub frame: u32,
+    /// The sample indices taken of every pixel, half-open.
     pub samples: std::ops::Range<u32>,
 }
 
@@ -107,8 +109,11 @@ impl PartialOrd for Unit {
 /// the counts of the work they took.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Progress {
+    /// The unit these sums belong to.
     pub unit: Unit,
+    /// Every pixel's sums, row-major from the top left.
     pub sums: Vec<PixelSums>,
+    /// The work counts of the samples taken so far.
     pub stats: Stats,
     /// Every pass ran (or a progressive render decided it was done).
     pub complete: bool,
@@ -129,6 +134,7 @@ pub trait Store: Sync {
 pub struct MemoryStore(std::sync::Mutex<std::collections::BTreeMap<Unit, Progress>>);
 
 impl MemoryStore {
+    /// Everything saved, by unit.
     pub fn into_map(self) -> std::collections::BTreeMap<Unit, Progress> {
         self.0.into_inner().unwrap_or_else(|e| e.into_inner())
     }
@@ -254,6 +260,7 @@ fn tiled(sums: &[PixelSums], tiles: &[Tile], width: u32) -> Vec<Vec<PixelSums>> 
 /// work took (from any worker thread), and a flag that stops the render when set.
 #[derive(Clone, Copy)]
 pub struct Monitor<'a> {
+    /// Called with each number of samples just taken, from any worker thread.
     pub progress: &'a (dyn Fn(u64) + Sync),
     /// Set it (from any thread) to stop: pieces of work not yet started are skipped, the work
     /// in flight is saved, and the render returns [`Error::Cancelled`].

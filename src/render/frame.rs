@@ -14,9 +14,13 @@ use crate::vm::cells::{Cells, Roots};
 use crate::vm::escape::Escape;
 use glam::{DVec3, DVec4};
 
+/// One object's tapes for one frame.
 pub struct FrameObject {
+    /// The object's own signed distance: its normal, and whether a point is inside it.
     pub distance: Tape,
+    /// Outputs: the material selector, then every leaf material's parameters at the point.
     pub material: Tape,
+    /// Where each leaf's parameters sit among `material`'s outputs.
     pub layout: Layout,
 }
 
@@ -28,17 +32,24 @@ pub struct Features {
     pub interiors: bool,
 }
 
+/// Everything the integrator reads to render one frame.
 pub struct FrameScene {
+    /// The animation time of the frame: 0 on the first, 1 on the last.
     pub t: f64,
+    /// The camera, moved and turned to this frame.
     pub camera: FrameCamera,
     /// Outputs: signed distance to the nearest visible object, and its index.
     pub scene: Tape,
     /// Outputs: unsigned distance to the nearest surface (`min |d_i|`), and its object, for
     /// rays inside objects; `None` when no object can be entered.
     pub interior: Option<Tape>,
+    /// Every object, indexed as the scene lists them.
     pub objects: Vec<FrameObject>,
+    /// The medium filling the world outside objects (vacuum unless the scene sets `air` or a fog).
     pub medium: Medium,
+    /// Radiance of rays that leave the scene.
     pub sky: DVec3,
+    /// What the scene uses, so unused features cost nothing.
     pub features: Features,
     /// The spherical emitters of this frame, for next-event estimation.
     pub lights: Lights,

@@ -40,11 +40,16 @@ use glam::{DVec3, DVec4};
 /// The settings of the light transport.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
+    /// Image width in pixels.
     pub width: u32,
+    /// Image height in pixels.
     pub height: u32,
     /// Most scattering events of one path.
     pub bounces: u32,
+    /// Marching epsilon and step limit.
     pub limits: Limits,
+    /// Seeds every sample's random stream (with the frame, pixel and sample index), so a render is
+    /// the same on any number of threads.
     pub seed: u64,
     /// Russian roulette from this many bounces on (`u32::MAX`: never).
     pub roulette_from: u32,
@@ -57,6 +62,7 @@ pub struct Settings {
 /// Counts for the summary.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Stats {
+    /// Camera samples taken (pixels times samples per pixel).
     pub samples: u64,
     /// Distance evaluations while marching.
     pub evaluations: u64,
@@ -93,9 +99,13 @@ impl std::ops::AddAssign for Stats {
 /// A rectangle of pixels.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Tile {
+    /// Left column, in pixels from the left edge.
     pub x: u32,
+    /// Top row, in pixels from the top edge.
     pub y: u32,
+    /// Width in pixels.
     pub width: u32,
+    /// Height in pixels.
     pub height: u32,
 }
 
@@ -107,6 +117,8 @@ const MAX_CROSSINGS: u32 = 256;
 const BATCH: usize = 4096;
 
 #[derive(Clone, Copy, Debug)]
+/// The media a path is inside, innermost last (at most a few deep): which medium it travels
+/// through, and what it enters or leaves at a boundary.
 pub struct Stack {
     entries: [(u32, Medium); MAX_NESTING],
     len: usize,

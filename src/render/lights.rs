@@ -25,7 +25,9 @@ use std::f64::consts::PI;
 /// A spherical emitter in one frame.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SphereLight {
+    /// Centre in world space.
     pub center: DVec4,
+    /// Radius in world units, positive.
     pub radius: f64,
     /// Emitted radiance (the same everywhere on the surface and in every direction).
     pub radiance: DVec3,
@@ -181,10 +183,12 @@ impl Lights {
         }
     }
 
+    /// Whether the frame has no spherical light (next-event estimation is then skipped).
     pub fn is_empty(&self) -> bool {
         self.lights.is_empty()
     }
 
+    /// The lights that exist this frame (zero-sized, non-finite and dark ones are dropped).
     pub fn lights(&self) -> &[SphereLight] {
         &self.lights
     }

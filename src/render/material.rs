@@ -8,30 +8,43 @@ use glam::DVec3;
 /// What a hit point scatters like.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Surface {
+    /// Lambertian reflection, optionally glowing too.
     Diffuse {
+        /// Reflectance per channel, 0 to 1.
         albedo: DVec3,
+        /// Emitted radiance, added to what is reflected.
         emission: DVec3,
     },
     /// An emitter that reflects nothing.
     Light {
+        /// Emitted radiance, the same in every direction.
         radiance: DVec3,
     },
+    /// A perfect specular reflector.
     Mirror {
+        /// Reflectance per channel.
         tint: DVec3,
     },
     /// A refracting boundary with a medium inside; `tint` filters each crossing.
     Glass {
+        /// Index of refraction of the inside (the outside counts as 1).
         ior: f64,
+        /// Transmittance per channel of each crossing.
         tint: DVec3,
+        /// The medium inside the object.
         inside: Medium,
     },
+    /// Glossy GGX reflection.
     Shiny {
+        /// Perceptual roughness, 0 (mirror-like) to 1.
         roughness: f64,
+        /// Reflectance at normal incidence per channel.
         color: DVec3,
     },
     /// No surface: the ray crosses into (or out of) the medium filling the object (fog, or
     /// clear `air` carved out of a surrounding medium).
     Boundary {
+        /// The medium inside the object.
         inside: Medium,
     },
 }
@@ -63,18 +76,23 @@ impl Surface {
 /// `sigma_s / sigma_t` per channel, and the Henyey-Greenstein anisotropy `g`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Medium {
+    /// Extinction coefficient per unit length; 0 is vacuum.
     pub sigma_t: f64,
+    /// Single-scattering albedo per channel, 0 to 1.
     pub albedo: DVec3,
+    /// Henyey-Greenstein anisotropy, -1 (back) to 1 (forward), 0 isotropic.
     pub g: f64,
 }
 
 impl Medium {
+    /// Empty space: nothing absorbs or scatters.
     pub const VACUUM: Medium = Medium {
         sigma_t: 0.0,
         albedo: DVec3::ONE,
         g: 0.0,
     };
 
+    /// Whether rays pass through without interacting (no extinction).
     pub fn is_vacuum(&self) -> bool {
         self.sigma_t <= 0.0
     }
@@ -108,6 +126,8 @@ pub struct Layout {
 }
 
 impl Layout {
+    /// The layout of a material tape whose outputs are the selector, then `leaves`'
+    /// parameters in order.
     pub fn new(leaves: &[Leaf]) -> Layout {
         let mut at = 1; // output 0 is the selector
         let mut next = |n: usize| {

@@ -15,6 +15,7 @@ use std::f64::consts::PI;
 /// One drawn direction; its weight is exactly 1.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PhaseSample {
+    /// The scattered direction, a unit 4D vector.
     pub wo: DVec4,
     /// Solid-angle pdf of `wo` (equal to the phase function's value).
     pub pdf: f64,
@@ -64,6 +65,8 @@ impl HenyeyGreenstein {
     /// `|g|` is clamped here: at `|g| = 1` the lobe is a delta.
     pub const G_MAX: f64 = 0.999;
 
+    /// The phase function with anisotropy `g` (mean cosine; -1 back, 0 isotropic, 1 forward),
+    /// clamped to `±G_MAX`.
     pub fn new(g: f64) -> HenyeyGreenstein {
         HenyeyGreenstein {
             g: g.clamp(-Self::G_MAX, Self::G_MAX),

@@ -34,8 +34,9 @@ pub struct Work {
     pub rays: u64,
     /// Graph nodes bounded to prove that rays escape (`Escape::escapes`).
     pub bounded: u64,
-    /// Steps (sphere steps, jumps across cells, steps back) and tape instructions per lane.
+    /// Steps (sphere steps, jumps across cells, steps back) per lane.
     pub steps: u64,
+    /// Tape instructions run per lane.
     pub instructions: u64,
     /// Rays that took at least a quarter of the step limit, or ran out: crawling rays
     /// (grazing a surface) that a bigger image, with more such rays, loses to the limit.
@@ -87,7 +88,9 @@ const WHOLE: Weights = Weights {
 /// the frame keeps its cells in any case).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
+    /// What marching through the cells cost.
     pub cells: Work,
+    /// What marching the whole tape cost, as far as it went.
     pub whole: Work,
     /// The whole-tape marcher resolves the epsilon at the camera and at every hit of the probe
     /// (`f32` coordinates of the whole tape; the cells resolve it locally).

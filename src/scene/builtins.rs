@@ -8,15 +8,20 @@ use super::types::Type;
 /// What a parameter may be, besides its type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Range {
+    /// No restriction.
     Any,
+    /// At least 0.
     NonNegative,
+    /// Greater than 0.
     Positive,
+    /// Between 0 and 1, both included.
     Unit,
     /// Strictly between -1 and 1.
     OpenSigned,
 }
 
 impl Range {
+    /// Whether `x` obeys the rule.
     pub fn test(self, x: f64) -> bool {
         match self {
             Range::Any => true,
@@ -44,7 +49,9 @@ impl Range {
 pub enum ParamDefault {
     /// The argument must be given.
     Required,
+    /// A number.
     Num(f64),
+    /// A `vec4`.
     Vec4([f64; 4]),
     /// A grey colour.
     Grey(f64),
@@ -64,17 +71,24 @@ impl ParamDefault {
 /// A parameter's type (the subset of [`Type`] builtins take, so the table can be a constant).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ParamType {
+    /// `num`
     Num,
+    /// `angle`
     Angle,
+    /// `vec4`
     Vec4,
+    /// `color`
     Color,
+    /// `shape`
     Shape,
+    /// `lattice`
     Lattice,
     /// A list of anything.
     List,
 }
 
 impl ParamType {
+    /// The language type the parameter has.
     pub fn ty(self) -> Type {
         match self {
             ParamType::Num => Type::Num,
@@ -89,30 +103,46 @@ impl ParamType {
 }
 
 #[derive(Debug, PartialEq)]
+/// One parameter of a builtin: its name, type, default and allowed range.
 pub struct ParamSpec {
+    /// The name, as named arguments write it.
     pub name: &'static str,
+    /// Its type.
     pub ty: ParamType,
+    /// Its default, or `Required`.
     pub default: ParamDefault,
+    /// What values beyond the type it accepts; each component of a constant is checked.
     pub range: Range,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// What a builtin makes, which decides where it may be used.
 pub enum Kind {
+    /// A primitive shape (`hypersphere`, ...).
     Shape,
+    /// An operation on shapes (`union`, `translate`, ...).
     Operation,
+    /// A lattice for `tile` (`d4`, `grid`).
     Lattice,
+    /// A material (`diffuse`, `glass`, ...).
     Material,
+    /// A value constructor (`rgb`, `vec4`, ...).
     Constructor,
 }
 
 #[derive(Debug, PartialEq)]
+/// One builtin: its name, what it makes and its parameters in positional order.
 pub struct Builtin {
+    /// The name it is called by.
     pub name: &'static str,
+    /// What it makes.
     pub kind: Kind,
+    /// Its parameters, in positional order.
     pub params: &'static [ParamSpec],
 }
 
 impl Builtin {
+    /// The parameter names, in order.
     pub fn names(&self) -> Vec<&'static str> {
         self.params.iter().map(|p| p.name).collect()
     }
@@ -338,6 +368,7 @@ pub const CONSTANTS: [&str; 11] = [
     "pi", "tau", "inf", "air", "t", "xy", "xz", "xw", "yz", "yw", "zw",
 ];
 
+/// The builtin called `name` in the table, if any.
 pub fn find(name: &str) -> Option<&'static Builtin> {
     TABLE.iter().find(|b| b.name == name)
 }

@@ -9,10 +9,13 @@ use std::rc::Rc;
 
 /// Inputs a field may depend on, as bit flags.
 pub const DEP_P: u8 = 1;
+/// Depends on the surface normal `n`.
 pub const DEP_N: u8 = 2;
+/// Depends on the frame variable `t`.
 pub const DEP_T: u8 = 4;
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// A variable a field expression reads.
 pub enum Input {
     /// The point being shaded or measured.
     P,
@@ -23,16 +26,23 @@ pub enum Input {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+/// Index of a node in [`Fields`].
 pub struct FieldId(pub u32);
 
 /// A constant inside a field expression.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Const {
+    /// A number.
     Num(f64),
+    /// An angle, in radians.
     Angle(f64),
+    /// `true` or `false`.
     Bool(bool),
+    /// A 4D vector.
     Vec4([f64; 4]),
+    /// A linear RGB colour.
     Color([f64; 3]),
+    /// A constant material (a material map's branches).
     Material(Rc<Material>),
 }
 
@@ -40,7 +50,9 @@ pub enum Const {
 /// materials and custom distances).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Param<T> {
+    /// Known when the scene is checked.
     Const(T),
+    /// Computed per point or per frame by the field expression with this id.
     Field(FieldId),
 }
 
@@ -55,6 +67,8 @@ impl<T: Copy> Param<T> {
 }
 
 impl<T> Param<T> {
+    /// Which of `p`, `n`, `t` the parameter depends on ([`DEP_P`], [`DEP_N`], [`DEP_T`] bits; 0 for
+    /// a constant).
     pub fn deps(&self, fields: &Fields) -> u8 {
         match self {
             Param::Const(_) => 0,
@@ -67,12 +81,19 @@ impl<T> Param<T> {
 /// operation of `math` applied per component; the rest combine several.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MathFn {
+    /// A one-argument function, per component (`sin`, `sqrt`, `floor`, ...).
     Un(Un),
+    /// A two-argument function, per component (`atan2`, `pow`, `min`, `max`).
     Bin(Bin),
+    /// `clamp(x, lo, hi)`.
     Clamp,
+    /// `mix(a, b, k)`: `a + (b - a) * k`.
     Mix,
+    /// `length(v)`: the Euclidean length of a `vec4`.
     Length,
+    /// `dot(a, b)` of two `vec4`s.
     Dot,
+    /// `normalize(v)`: `v` scaled to unit length.
     Normalize,
 }
 
@@ -108,6 +129,7 @@ impl MathFn {
         ]
     };
 
+    /// The builtin called `name` in the language, if there is one.
     pub fn from_name(name: &str) -> Option<MathFn> {
         MathFn::ALL
             .iter()
@@ -115,6 +137,7 @@ impl MathFn {
             .map(|(_, f)| *f)
     }
 
+    /// The builtin's name in the language.
     pub fn name(self) -> &'static str {
         MathFn::ALL
             .iter()
@@ -122,6 +145,7 @@ impl MathFn {
             .map_or("?", |(n, _)| n)
     }
 
+    /// The builtin's parameter names, in order, for named arguments and messages.
     pub fn params(self) -> &'static [&'static str] {
         use MathFn as M;
         match self {
@@ -181,18 +205,31 @@ impl MathFn {
 /// `==` / `!=` over whole values.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FieldBin {
+    /// `+`
     Add,
+    /// `-`
     Sub,
+    /// `*`
     Mul,
+    /// `/`
     Div,
+    /// `mod`, the remainder.
     Mod,
+    /// `<`
     Lt,
+    /// `<=`
     Le,
+    /// `>`
     Gt,
+    /// `>=`
     Ge,
+    /// `==`
     Eq,
+    /// `!=`
     Ne,
+    /// `&&`
     And,
+    /// `\|\|`
     Or,
 }
 
@@ -219,16 +256,25 @@ impl FieldBin {
 }
 
 #[derive(Clone, Debug, PartialEq)]
+/// One node of a field expression; operands are earlier nodes.
 pub enum FieldOp {
+    /// A variable: `p`, `n` or `t`.
     Input(Input),
+    /// A constant.
     Const(Const),
     /// `-x` (`Un::Neg`) or `!x` (`Un::Not`), per component.
     Unary(Un, FieldId),
+    /// An operator applied to two operands.
     Binary(FieldBin, FieldId, FieldId),
+    /// A maths builtin applied to its arguments.
     Math(MathFn, Vec<FieldId>),
+    /// One component (0 to 3: x, y, z, w, or r, g, b) of a `vec4` or colour.
     Component(FieldId, u8),
+    /// A `vec4` from four numbers.
     MakeVec4([FieldId; 4]),
+    /// A colour from three numbers.
     MakeColor([FieldId; 3]),
+    /// `if c { a } else { b }`: condition, then value, else value.
     Select(FieldId, FieldId, FieldId),
     /// Element `index` of a list (the index is clamped to the list at run time).
     Index(Vec<FieldId>, FieldId),
@@ -253,23 +299,30 @@ impl FieldOp {
 }
 
 #[derive(Clone, Debug, PartialEq)]
+/// One node of the field arena: its operation, its type and what it depends on.
 pub struct FieldNode {
+    /// What the node computes.
     pub op: FieldOp,
+    /// The node's type.
     pub ty: Type,
+    /// Which inputs it depends on, transitively ([`DEP_P`], [`DEP_N`], [`DEP_T`] bits).
     pub deps: u8,
 }
 
 /// The arena of field expressions; children precede parents.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Fields {
+    /// The nodes, indexed by [`FieldId`].
     pub nodes: Vec<FieldNode>,
 }
 
 impl Fields {
+    /// The node with id `id`; panics if there is no such node.
     pub fn get(&self, id: FieldId) -> &FieldNode {
         &self.nodes[id.0 as usize]
     }
 
+    /// Append a node after its operands, working out its dependencies, and return its id.
     pub fn push(&mut self, op: FieldOp, ty: Type) -> FieldId {
         let deps = match &op {
             FieldOp::Input(Input::P) => DEP_P,
@@ -283,6 +336,7 @@ impl Fields {
     }
 }
 
+/// The inputs in `deps` in words, for messages: "the point `p` and the frame variable `t`".
 pub fn describe_deps(deps: u8) -> String {
     let mut names = vec![];
     if deps & DEP_P != 0 {

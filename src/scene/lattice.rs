@@ -2,12 +2,21 @@
 
 use crate::math::kernel::d4;
 
+/// The points `tile` puts a copy of a shape at, each copy in its own cell.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Lattice {
     /// Integer points with an even coordinate sum, times `scale`.
-    D4 { scale: f64 },
+    D4 {
+        /// Scale of the lattice; neighbouring points are `scale * sqrt(2)` apart.
+        scale: f64,
+    },
     /// Points `spacing * k` with `|k_i| <= limit_i`.
-    Grid { spacing: [f64; 4], limit: [f64; 4] },
+    Grid {
+        /// Distance between neighbouring points along each axis, each positive.
+        spacing: [f64; 4],
+        /// How many cells each side of the origin along each axis (infinite: unbounded).
+        limit: [f64; 4],
+    },
 }
 
 impl Lattice {

@@ -5,18 +5,27 @@
 use super::builtins::{self, ParamSpec};
 use super::field::{Fields, Param};
 
+/// Which material a [`Material`] is, without its parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum MaterialKind {
+    /// `diffuse`: a matte surface, optionally glowing.
     Diffuse,
+    /// `light`: an emitter that reflects nothing.
     Light,
+    /// `mirror`: a perfect mirror.
     Mirror,
+    /// `glass`: a refracting surface with a medium inside.
     Glass,
+    /// `shiny`: a GGX microfacet metal.
     Shiny,
+    /// `fog`: a participating medium filling the object, with no surface.
     Fog,
+    /// `air`: clear space, no surface and no medium (carves holes in a surrounding fog).
     Air,
 }
 
 impl MaterialKind {
+    /// Every kind, in the builtin table's order.
     pub const ALL: [MaterialKind; 7] = [
         MaterialKind::Diffuse,
         MaterialKind::Light,
@@ -27,6 +36,7 @@ impl MaterialKind {
         MaterialKind::Air,
     ];
 
+    /// The name in the language (`diffuse`, `glass`, ...).
     pub fn name(self) -> &'static str {
         match self {
             MaterialKind::Diffuse => "diffuse",
@@ -56,43 +66,67 @@ impl MaterialKind {
 /// One parameter: a number or a colour.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Slot<N, C> {
+    /// A number parameter.
     Num(N),
+    /// A colour parameter.
     Color(C),
 }
 
 /// A material; parameters are in the order of the builtin table.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Material<N = Param<f64>, C = Param<[f64; 3]>> {
+    /// A matte (Lambertian) surface.
     Diffuse {
+        /// Reflectance per channel, 0 to 1 (default 0.8).
         albedo: C,
+        /// Radiance emitted as well (default black).
         emission: C,
     },
+    /// An emitter that reflects nothing.
     Light {
+        /// Emitted colour (default white).
         color: C,
+        /// Multiplies `color`: the emitted radiance is `color * intensity`.
         intensity: N,
     },
+    /// A perfect mirror.
     Mirror {
+        /// Reflectance per channel (default white).
         tint: C,
     },
+    /// A refracting surface with a homogeneous medium inside.
     Glass {
+        /// Index of refraction (default 1.5).
         ior: N,
+        /// Transmittance per channel of each crossing (default white).
         tint: C,
+        /// Extinction of the medium inside, per unit length (default 0: clear).
         extinction: N,
+        /// Fraction of the extinction inside that scatters rather than absorbs, per channel.
         albedo: C,
     },
+    /// A GGX microfacet metal.
     Shiny {
+        /// Perceptual roughness, 0 (polished) to 1 (default 0.3).
         roughness: N,
+        /// Reflectance at normal incidence per channel (default 0.9).
         color: C,
     },
+    /// A participating medium filling the object (or all space, as the global `medium`).
     Fog {
+        /// Extinction per unit length (default 0.1).
         extinction: N,
+        /// Fraction of the extinction that scatters rather than absorbs, per channel.
         albedo: C,
+        /// Henyey-Greenstein `g`: > 0 scatters forwards, < 0 backwards, 0 evenly.
         anisotropy: N,
     },
+    /// Clear space: no surface and no medium.
     Air,
 }
 
 impl<N, C> Material<N, C> {
+    /// Which material this is.
     pub fn kind(&self) -> MaterialKind {
         match self {
             Material::Diffuse { .. } => MaterialKind::Diffuse,

@@ -47,6 +47,7 @@ fn angle(a: f64) -> String {
     format!("{}deg", Num(round9(a.to_degrees())))
 }
 
+/// A lattice as the scene language writes it, e.g. `d4(scale: 1)`.
 pub fn lattice(l: &Lattice) -> String {
     match l {
         Lattice::D4 { scale } => format!("d4(scale: {})", Num(*scale)),

@@ -10,11 +10,15 @@ use super::print::Num;
 pub struct SettingRange {
     /// The setting's name in the scene (`max_steps`).
     pub name: &'static str,
+    /// The lower bound: included for whole numbers, excluded otherwise.
     pub lo: f64,
+    /// The upper bound, included.
     pub hi: f64,
+    /// Whether the value must be a whole number.
     pub whole: bool,
 }
 
+/// The range of a whole-number setting, `lo..=hi`.
 pub const fn whole(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     SettingRange {
         name,
@@ -24,6 +28,7 @@ pub const fn whole(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     }
 }
 
+/// The range of a setting in `(lo, hi]`.
 pub const fn above(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     SettingRange {
         name,
@@ -33,15 +38,23 @@ pub const fn above(name: &'static str, lo: f64, hi: f64) -> SettingRange {
     }
 }
 
+/// `frames`: 1 to 10000.
 pub const FRAMES: SettingRange = whole("frames", 1.0, 10000.0);
+/// `spp`: 1 to a million samples per pixel.
 pub const SPP: SettingRange = whole("spp", 1.0, 1e6);
+/// `bounces`: 0 to 1000.
 pub const BOUNCES: SettingRange = whole("bounces", 0.0, 1000.0);
+/// `max_steps`: 1 to a million marching steps.
 pub const MAX_STEPS: SettingRange = whole("max_steps", 1.0, 1e6);
 /// 2^53: every seed up to it is exact in a scene's numbers.
 pub const SEED: SettingRange = whole("seed", 0.0, 9007199254740992.0);
+/// `threads`: 0 (every core) to 1024.
 pub const THREADS: SettingRange = whole("threads", 0.0, 1024.0);
+/// `epsilon`: the marching hit distance, in `(0, 1]`.
 pub const EPSILON: SettingRange = above("epsilon", 0.0, 1.0);
+/// `fps`: in `(0, 100]`.
 pub const FPS: SettingRange = above("fps", 0.0, 100.0);
+/// `exposure`: in `(0, 1e6]`.
 pub const EXPOSURE: SettingRange = above("exposure", 0.0, 1e6);
 /// Each side of the image.
 pub const SIDE: SettingRange = whole("each side of the image", 1.0, 16384.0);
@@ -49,6 +62,7 @@ pub const SIDE: SettingRange = whole("each side of the image", 1.0, 16384.0);
 pub const FRAME: SettingRange = whole("frame", 0.0, FRAMES.hi - 1.0);
 
 impl SettingRange {
+    /// Whether `x` is a value the setting may take.
     pub fn contains(&self, x: f64) -> bool {
         if self.whole {
             x.fract() == 0.0 && x >= self.lo && x <= self.hi

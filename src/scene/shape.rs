@@ -7,7 +7,9 @@ use crate::math::Plane;
 use crate::math::plane::rotate;
 use std::rc::Rc;
 
+/// A number parameter: a constant, or a field of `t` (and of `p` in a custom distance).
 pub type Num = Param<f64>;
+/// A `vec4` parameter: a constant, or a field of `t`.
 pub type Vector = Param<[f64; 4]>;
 
 /// Plane rotations applied in order; angles are constants or fields of `t`.
@@ -16,83 +18,140 @@ pub type Rotation = Vec<(Plane, Num)>;
 /// The regular polytopes, by their number of cells.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Polytope {
+    /// The 5-cell (4-simplex), `cell5`.
     Cell5,
+    /// The 16-cell (4D cross-polytope), `cell16`.
     Cell16,
+    /// The 24-cell, `cell24`.
     Cell24,
 }
 
+/// What a shape node is: a primitive with its parameters, or an operation on child shapes.
+/// Sizes are in world units.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ShapeKind {
+    /// The 4D ball around the origin.
     Hypersphere {
+        /// Radius in world units.
         radius: Num,
     },
+    /// Everything on the inner side of a hyperplane: `dot(p, normalize(normal)) <= offset`.
     Halfspace {
+        /// Direction out of the solid (normalised when evaluated).
         normal: Vector,
+        /// Signed distance of the boundary from the origin along `normal`.
         offset: Num,
     },
+    /// A box centred on the origin, its edges and corners optionally rounded.
     Hyperbox {
+        /// Half-extent along each axis.
         half: Vector,
+        /// Rounding radius of edges and corners; the outer extents stay `half`.
         radius: Num,
     },
+    /// A ball in xyz times an interval in w.
     Spherinder {
+        /// Radius of the ball in xyz.
         radius: Num,
+        /// Half-length in w.
         height: Num,
     },
+    /// A disk in xy times an interval in both z and w.
     Cubinder {
+        /// Radius of the disk in xy.
         radius: Num,
+        /// Half-length in z and in w.
         height: Num,
     },
+    /// A disk in xy times a disk in zw.
     Duocylinder {
+        /// Radius of the disk in xy.
         radius1: Num,
+        /// Radius of the disk in zw.
         radius2: Num,
     },
+    /// A regular polytope centred on the origin.
     Polytope {
+        /// Which polytope.
         cells: Polytope,
+        /// Circumradius in world units.
         radius: Num,
     },
     /// `sdf |p| ...`: the distance is a field of `p` (and `t`).
     Custom {
+        /// The signed distance at `p`, a field expression.
         distance: Num,
     },
+    /// Everything in any of the shapes.
     Union {
+        /// The shapes, at least one.
         shapes: Vec<Rc<Shape>>,
+        /// Blend distance; 0 is a sharp union.
         smooth: Num,
     },
+    /// Only what is in all of the shapes.
     Intersect {
+        /// The shapes, at least one.
         shapes: Vec<Rc<Shape>>,
+        /// Blend distance; 0 is a sharp intersection.
         smooth: Num,
     },
+    /// `shape` with `cut` removed.
     Subtract {
+        /// The shape cut from.
         shape: Rc<Shape>,
+        /// What is removed.
         cut: Rc<Shape>,
+        /// Blend distance; 0 is a sharp cut.
         smooth: Num,
     },
+    /// A shell centred on the surface of `shape` (distance `|d| - thickness / 2`).
     Onion {
+        /// The shape whose surface the shell follows.
         shape: Rc<Shape>,
+        /// Total thickness of the shell.
         thickness: Num,
     },
+    /// `shape` grown with rounded edges (distance `d - radius`).
     Round {
+        /// The shape grown.
         shape: Rc<Shape>,
+        /// How far it grows.
         radius: Num,
     },
+    /// `shape` moved.
     Translate {
+        /// The shape moved.
         shape: Rc<Shape>,
+        /// The displacement.
         offset: Vector,
     },
+    /// `shape` rotated about the origin.
     Rotate {
+        /// The shape rotated.
         shape: Rc<Shape>,
+        /// The plane rotations, applied in order.
         rotation: Rotation,
     },
+    /// `shape` scaled uniformly about the origin, its distance corrected.
     Scale {
+        /// The shape scaled.
         shape: Rc<Shape>,
+        /// The scale factor, positive.
         factor: Num,
     },
+    /// A mirror: the half of `shape` where `dot(p, normal) >= 0` reflected to the other side.
     Symmetry {
+        /// The shape mirrored.
         shape: Rc<Shape>,
+        /// The mirror hyperplane's normal, through the origin, pointing at the half kept.
         normal: Vector,
     },
+    /// `shape` repeated at every point of a lattice, one copy per cell.
     Tile {
+        /// The shape repeated, centred on each lattice point.
         shape: Rc<Shape>,
+        /// Where the copies go.
         lattice: Lattice,
     },
 }
@@ -101,16 +160,22 @@ pub enum ShapeKind {
 /// shallow.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Shape {
+    /// The node.
     pub kind: ShapeKind,
+    /// Nodes on the longest path down to a primitive, this one included (1 for a primitive).
     pub depth: u32,
 }
 
 /// A shape parameter, for the printer and for passes that treat parameters alike.
 #[derive(Clone, Copy, Debug)]
 pub enum ParamRef<'a> {
+    /// A number.
     Num(&'a Num),
+    /// A `vec4`.
     Vector(&'a Vector),
+    /// A rotation.
     Rotation(&'a Rotation),
+    /// A lattice (always constant).
     Lattice(&'a Lattice),
 }
 
@@ -127,6 +192,7 @@ impl ParamRef<'_> {
 }
 
 impl Shape {
+    /// A node of `kind`, its depth worked out from its children.
     pub fn new(kind: ShapeKind) -> Shape {
         let depth = 1 + kind.children().iter().map(|c| c.depth).max().unwrap_or(0);
         Shape { kind, depth }
@@ -394,6 +460,7 @@ impl ShapeKind {
         }
     }
 
+    /// The child shapes an operation applies to, in order; none for a primitive.
     pub fn children(&self) -> Vec<&Rc<Shape>> {
         use ShapeKind as S;
         match self {
@@ -415,6 +482,7 @@ fn length(v: [f64; 4]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
+/// The Euclidean distance between two points in 4D.
 pub fn distance(a: [f64; 4], b: [f64; 4]) -> f64 {
     length(std::array::from_fn(|i| a[i] - b[i]))
 }

@@ -3,20 +3,35 @@
 use std::fmt;
 
 #[derive(Clone, Debug, PartialEq)]
+/// The type of a value in the scene language, as the checker infers and annotations name it.
 pub enum Type {
+    /// A double-precision number.
     Num,
+    /// An angle (`15deg`, `0.5rad`), kept apart from plain numbers; stored in radians.
     Angle,
+    /// `true` or `false`.
     Bool,
+    /// A point or direction in 4D.
     Vec4,
+    /// A linear RGB colour.
     Color,
+    /// Text (`string` in annotations).
     Str,
+    /// An image size, `w x h`.
     Size,
+    /// One of the six coordinate planes, `xy` to `zw`.
     Plane,
+    /// A composition of plane rotations.
     Rotation,
+    /// A lattice for `tile`.
     Lattice,
+    /// How a surface or volume interacts with light.
     Material,
+    /// A solid in 4D.
     Shape,
+    /// A list whose items all have the given type.
     List(Box<Type>),
+    /// A function value, such as a material map `|p, n| ...`.
     Function,
     /// The element type of an empty list, or the type of an erroneous value: fits anything.
     Unknown,
@@ -57,6 +72,7 @@ impl Type {
         })
     }
 
+    /// Every type name annotations accept (`list` takes an item type), for suggestions.
     pub const NAMES: [&'static str; 14] = [
         "num", "angle", "bool", "vec4", "color", "string", "size", "plane", "rotation", "lattice",
         "material", "shape", "function", "list",

@@ -46,6 +46,7 @@ pub enum MarcherKind {
 }
 
 impl MarcherKind {
+    /// The name `--marcher` takes and film fingerprints record.
     pub fn name(self) -> &'static str {
         match self {
             MarcherKind::Auto => "auto",
@@ -60,28 +61,42 @@ impl MarcherKind {
 /// scene and interior tapes, and the proof that a ray has left the scene.
 #[derive(Clone, Copy)]
 pub struct Field<'a> {
+    /// The frame's pruned cells; `None` for the whole-tape marchers.
     pub cells: Option<&'a Cells>,
     /// Whether rays outside objects over-relax their steps (all but the plain marcher).
     pub relax: bool,
+    /// The whole scene tape: signed distance to the nearest visible object, and its index.
     pub scene: &'a Tape,
+    /// The unsigned distance to any surface, for rays inside objects; `None` when no object
+    /// can be entered.
     pub interior: Option<&'a Tape>,
+    /// What proves that a ray has left every object.
     pub escape: &'a Escape,
 }
 
 /// A ray segment to march: from `o` along the unit direction `d` up to `tmax`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
+    /// Origin, in world space.
     pub o: DVec4,
+    /// Unit direction.
     pub d: DVec4,
+    /// Farthest distance to march, in world units.
     pub tmax: f64,
     /// The ray may be inside an object: march on the unsigned distance to every surface.
     pub interior: bool,
 }
 
+/// How a march ended.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Hit {
     /// Within the marching epsilon of `object`'s surface, `t` along the ray.
-    Surface { t: f64, object: usize },
+    Surface {
+        /// Distance along the ray, in world units.
+        t: f64,
+        /// The object's index in the scene.
+        object: usize,
+    },
     /// Nothing before `tmax`, or the ray left the scene.
     Beyond,
     /// The step limit ran out first.
@@ -91,7 +106,9 @@ pub enum Hit {
 /// The marching settings of a render.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Limits {
+    /// How close to a surface counts as a hit, in world units (the scene's `epsilon`).
     pub epsilon: f64,
+    /// Most steps one ray segment may take before it is given up (the scene's `max_steps`).
     pub max_steps: u32,
 }
 
