@@ -58,6 +58,10 @@
 //! See `docs/language.md` for the language, `docs/physics.md` for what is computed, and
 //! `docs/ir-and-vm.md` for the compiled forms and how to pin them in your own tests.
 
+// Every public item outside the hidden plumbing modules is documented; with
+// `cargo clippy -- -D warnings` a gap is an error.
+#![warn(missing_docs)]
+
 #[doc(hidden)]
 pub mod check;
 pub mod codes;
