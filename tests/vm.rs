@@ -346,7 +346,13 @@ fn stretches_proven_clear_meet_no_surface() {
             .program(Some(0.5))
             .ir;
         let scene = (ir.distance, ir.nearest);
-        let escape = Escape::new(&ir.graph, (DVec4::ZERO, DVec4::ZERO), &[], scene, None);
+        let escape = Escape::new(
+            &ir.graph,
+            (DVec4::ZERO, DVec4::ZERO),
+            &[],
+            (scene, None),
+            0.5,
+        );
         (escape, ir)
     };
     let mut proofs = Proofs::default();

@@ -56,23 +56,30 @@ impl<'g> Reference<'g> {
 
     /// Evaluate with the inputs `vars` (indexed by `Var::index`), then read nodes with `value`.
     pub fn run(&mut self, vars: &[f64; 9]) {
-        for i in 0..self.graph.len() {
-            if !self.live[i] {
-                continue;
-            }
-            let n = self.graph.get(Id(i as u32));
-            let mut out = [0.0; 8];
-            match n {
-                Node::Var(v) => out[0] = vars[v.index()],
-                Node::Proj(a, j) => out[0] = self.vals[a.0 as usize][j as usize],
-                n => node(&n, |c| self.vals[c.0 as usize][0], &mut out),
-            }
-            self.vals[i] = out;
-        }
+        walk(self.graph, Some(&self.live), vars, &mut self.vals);
     }
 
     pub fn value(&self, id: Id) -> f64 {
         self.vals[id.0 as usize][0]
+    }
+}
+
+/// Every node of `g` that `live` marks (all when `None`) at the inputs `vars`, in id order, into
+/// `vals` (a node's outputs at its id; resized to the graph).
+pub fn walk(g: &Graph, live: Option<&[bool]>, vars: &[f64; 9], vals: &mut Vec<[f64; 8]>) {
+    vals.resize(g.len(), [0.0; 8]);
+    for i in 0..g.len() {
+        if live.is_some_and(|l| !l[i]) {
+            continue;
+        }
+        let n = g.get(Id(i as u32));
+        let mut out = [0.0; 8];
+        match n {
+            Node::Var(v) => out[0] = vars[v.index()],
+            Node::Proj(a, j) => out[0] = vals[a.0 as usize][j as usize],
+            n => node(&n, |c| vals[c.0 as usize][0], &mut out),
+        }
+        vals[i] = out;
     }
 }
 

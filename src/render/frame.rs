@@ -97,7 +97,7 @@ impl FrameScene {
         let (cells, escape) = cells(
             &program.ir,
             &compiled.bounds,
-            camera.position,
+            (camera.position, t),
             scene.render.epsilon,
             marcher,
         );
@@ -140,7 +140,7 @@ impl FrameScene {
 fn cells(
     ir: &SceneIr,
     bounds: &[Option<([f64; 4], f64)>],
-    camera: DVec4,
+    (camera, t): (DVec4, f64),
     epsilon: f64,
     marcher: MarcherKind,
 ) -> (Option<Cells>, Escape) {
@@ -161,7 +161,7 @@ fn cells(
     }
     let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
     let scene = (ir.distance, ir.nearest);
-    let escape = Escape::new(&ir.graph, (lo, hi), &distances, scene, ir.interior);
+    let escape = Escape::new(&ir.graph, (lo, hi), &distances, (scene, ir.interior), t);
     if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
         return (None, escape);
     }
