@@ -185,12 +185,12 @@ impl Along {
         for i in 0..g.len() {
             match g.get(Id(i as u32)) {
                 Node::D4(v) => {
-                    let Some(v) = v.iter().map(|&x| line(x)).collect::<Option<Vec<_>>>() else {
+                    let [Some(x), Some(y), Some(z), Some(w)] = v.map(line) else {
                         out.clear();
                         return false;
                     };
-                    let base = std::array::from_fn(|a| v[a].0);
-                    let slope = std::array::from_fn(|a| v[a].1);
+                    let base = [x.0, y.0, z.0, w.0];
+                    let slope = [x.1, y.1, z.1, w.1];
                     d4_crossings(base, slope, len, most + 1, out);
                 }
                 Node::Rep(x, l) => {
