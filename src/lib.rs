@@ -77,6 +77,7 @@ pub mod generate;
 pub mod image;
 #[doc(hidden)]
 pub mod ir;
+pub mod material;
 #[doc(hidden)]
 pub mod math;
 #[doc(hidden)]
@@ -143,9 +144,11 @@ pub struct Rendered {
 /// ```
 pub fn render(scene: &scene::Scene, options: &RenderOptions, monitor: Monitor) -> Result<Rendered> {
     let start = Instant::now();
-    let (mut frames, stats) = render::driver::render_films(scene, options, monitor)?;
+    let compiled = compile::Frames::new(scene);
+    let (mut frames, stats) = render::driver::render_films(&compiled, options, monitor)?;
     let denoise_start = Instant::now();
-    farm::assemble::denoise_frames(&mut frames, scene.render.denoise, options)?;
+    let threads = options.threads.or(compiled.shot.threads);
+    farm::assemble::denoise_frames(&mut frames, scene.render.denoise, threads)?;
     Ok(Rendered {
         frames,
         stats,

@@ -354,14 +354,15 @@ fn resumed_renders_add_exactly_the_missing_samples() {
             noise_threshold: threshold,
             ..Options::default()
         };
-        let units = driver::whole(&scene);
+        let frames = hyperslice::compile::Frames::new(&scene);
+        let units = driver::whole(&frames.shot);
         let none = &|_: u64| {};
         let reference = MemoryStore::default();
         let monitor = Monitor {
             progress: none,
             cancel: None,
         };
-        driver::render_units(&scene, &options, &units, &reference, monitor).expect("rendered");
+        driver::render_units(&frames, &options, &units, &reference, monitor).expect("rendered");
         let reference = reference.into_map();
         for stop_after in [1_000u64, 9_000, 30_000] {
             let store = MemoryStore::default();
@@ -376,7 +377,7 @@ fn resumed_renders_add_exactly_the_missing_samples() {
                 progress: &progress,
                 cancel: Some(&cancel),
             };
-            let first = driver::render_units(&scene, &options, &units, &store, monitor);
+            let first = driver::render_units(&frames, &options, &units, &store, monitor);
             assert!(matches!(first, Err(hyperslice::Error::Cancelled)));
             let kept = store
                 .load(&units[0])
@@ -387,7 +388,7 @@ fn resumed_renders_add_exactly_the_missing_samples() {
                 progress: none,
                 cancel: None,
             };
-            driver::render_units(&scene, &options, &units, &store, monitor).expect("resumed");
+            driver::render_units(&frames, &options, &units, &store, monitor).expect("resumed");
             let resumed = store.into_map();
             for (unit, want) in &reference {
                 let got = &resumed[unit];

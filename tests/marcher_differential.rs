@@ -19,11 +19,11 @@
 
 use glam::DVec4;
 use hyperslice::Compilation;
-use hyperslice::compile::Compiled;
+use hyperslice::compile::Frames;
 use hyperslice::generate::{Generated, generate};
 use hyperslice::ir::eval::{Reference, vars};
 use hyperslice::ir::{Id, SceneIr};
-use hyperslice::render::frame::{Features, FrameScene};
+use hyperslice::render::frame::{Build, FrameScene};
 use hyperslice::render::march::{Hit, Limits, Marcher, MarcherKind, Ray};
 use hyperslice::vm::cells::epsilon_at;
 use rand::{Rng, SeedableRng};
@@ -179,8 +179,8 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
         c.render_diagnostics(false)
     );
     let scene = c.scene.expect("a scene");
-    let compiled = Compiled::new(&scene);
-    let fs = FrameScene::for_marcher(&scene, &compiled, Features::of(&compiled), 0.0, kind);
+    let frames = Frames::new(&scene);
+    let fs = frames.at(0.0, Build::marcher(kind));
     let ir = hyperslice::ir::lower(&scene);
     let mut roots = vec![ir.distance];
     roots.extend(ir.interior.map(|i| i.0));
@@ -189,7 +189,7 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
         eval: Reference::new(&ir.graph, &roots),
         ir: &ir,
     };
-    let limits = Limits::of(&scene.render);
+    let limits = frames.shot.limits;
     let (w, h) = (8, 8);
     let camera = &fs.camera;
     let rays: Vec<Ray> = (0..w * h)

@@ -18,12 +18,13 @@ use common::*;
 use glam::{DVec3, DVec4};
 use hyperslice::Compilation;
 use hyperslice::Rendered;
-use hyperslice::compile::Compiled;
+use hyperslice::compile::Frames;
 use hyperslice::render::driver::Options;
-use hyperslice::render::frame::{Features, FrameScene};
+use hyperslice::render::frame::Build;
 use hyperslice::render::lights::{
     ball_pdf, cap_area, cap_integral, cone_half_angle, sample_ball, sample_cone_theta,
 };
+use hyperslice::render::march::MarcherKind;
 use hyperslice::render::sampling::uniform_s3;
 use rand::SeedableRng;
 use rand_pcg::Pcg64Mcg;
@@ -264,10 +265,9 @@ fn spherical_lights_are_recognised_and_placed_per_frame() {
          object shell { shape = hypersphere(0.5) |> onion(0.1) material = light() }
          object dark { shape = hypersphere(0.2) |> translate([-3, 0, 0, 0]) material = light(intensity: 0) }",
     );
-    let compiled = Compiled::new(&scene);
-    let features = Features::of(&compiled);
+    let frames = Frames::new(&scene);
     for t in [0.0, 0.5, 1.0] {
-        let fs = FrameScene::new(&scene, &compiled, features, t);
+        let fs = frames.at(t, Build::marcher(MarcherKind::Cells));
         let lights = fs.lights.lights();
         let objects: Vec<u32> = lights.iter().map(|l| l.object).collect();
         assert_eq!(objects, vec![1, 2], "t = {t}");

@@ -10,10 +10,10 @@ mod common;
 use common::*;
 use glam::{DVec3, DVec4};
 use hyperslice::Rendered;
-use hyperslice::compile::Compiled;
+use hyperslice::compile::Frames;
 use hyperslice::render::driver::{self, Options};
-use hyperslice::render::frame::{Features, FrameScene};
-use hyperslice::render::march::{Hit, Limits, Marcher, Ray};
+use hyperslice::render::frame::{Build, FrameScene};
+use hyperslice::render::march::{Hit, Marcher, MarcherKind, Ray};
 use hyperslice::render::sampler::SamplerKind;
 use std::time::Duration;
 
@@ -446,7 +446,7 @@ struct Marched {
     hits: Vec<Hit>,
     marcher: Marcher,
     frame: FrameScene,
-    compiled: Compiled,
+    frames: Frames,
 }
 
 /// Where `ray` meets the floor `y = 0`.
@@ -464,10 +464,10 @@ fn on_the_floor(ray: &Ray, t: f64) -> bool {
 fn march_rays(src: &str, rays: impl FnOnce(&FrameScene) -> Vec<Ray>) -> Marched {
     let c = hyperslice::Compilation::from_source("rays.4ds", src);
     let scene = c.scene.expect("a scene");
-    let compiled = Compiled::new(&scene);
-    let frame = FrameScene::new(&scene, &compiled, Features::of(&compiled), 0.0);
+    let frames = Frames::new(&scene);
+    let frame = frames.at(0.0, Build::marcher(MarcherKind::Cells));
     let rays = rays(&frame);
-    let limits = Limits::of(&scene.render);
+    let limits = frames.shot.limits;
     let (mut marcher, mut hits) = (Marcher::default(), vec![]);
     marcher.march(frame.field(), &rays, limits, &mut hits);
     Marched {
@@ -475,7 +475,7 @@ fn march_rays(src: &str, rays: impl FnOnce(&FrameScene) -> Vec<Ray>) -> Marched 
         hits,
         marcher,
         frame,
-        compiled,
+        frames,
     }
 }
 
@@ -546,7 +546,7 @@ fn hits_on_a_radius_1e5_hypersphere_lie_within_the_epsilon() {
     let block = "object block { shape = hyperbox([0.4, 0.4, 0.4, 0.4]) |> rotate(xz, 30deg) |> translate([0.5, 0.3, 0.5, 0]) material = diffuse() }";
     for src in [ground.to_string(), format!("{ground}\n{block}")] {
         let m = march_camera_rays(&src, (64, 48));
-        let ir = &m.compiled.ir;
+        let ir = &m.frames.compiled.ir;
         let mut reference = Reference::new(&ir.graph, &[ir.distance]);
         let mut worst: f64 = 0.0;
         let mut surface = 0;
@@ -602,7 +602,7 @@ fn grazing_rays_along_a_floor_past_a_custom_field() {
                object floor { shape = halfspace(offset: 0) material = diffuse() }";
     use hyperslice::ir::eval::{Reference, vars};
     let m = march_camera_rays(src, (160, 120));
-    let ir = &m.compiled.ir;
+    let ir = &m.frames.compiled.ir;
     let mut reference = Reference::new(&ir.graph, &[ir.distance]);
     let (mut floor, mut grazing, mut balls) = (0, 0, 0);
     for (ray, hit) in m.rays.iter().zip(&m.hits) {
@@ -695,7 +695,7 @@ fn random_rays_beside_a_floor_a_sphere_and_a_box_meet_the_first_surface() {
         }
     }
     let m = march_rays(src, |_| rays);
-    let ir = &m.compiled.ir;
+    let ir = &m.frames.compiled.ir;
     let block = ir.objects[0].distance;
     let mut reference = Reference::new(&ir.graph, &[block]);
     // Whether the ray passes through the box before `t` (sampled finer than the box).
@@ -978,7 +978,7 @@ fn adaptive_sampling_spends_samples_where_the_noise_is() {
 /// tolerance far below the marcher's: the reference the marcher's hits are checked against.
 fn reference_hit(m: &Marched, ray: &Ray) -> Option<f64> {
     use hyperslice::ir::eval::{Reference, vars};
-    let ir = &m.compiled.ir;
+    let ir = &m.frames.compiled.ir;
     let mut reference = Reference::new(&ir.graph, &[ir.distance]);
     let mut t = 0.0;
     for _ in 0..1_000_000 {

@@ -674,20 +674,15 @@ fn tapes_hold_only_what_their_roots_need() {
 #[test]
 fn emitted_bytecode_is_what_each_frame_renders() {
     use hyperslice::At;
-    use hyperslice::compile::{Compiled, frame_time};
-    use hyperslice::render::frame::{Features, FrameScene};
+    use hyperslice::compile::Frames;
+    use hyperslice::render::frame::{Build, FrameSource};
+    use hyperslice::render::march::MarcherKind;
     for example in ["examples/glass_box.4ds", "examples/tesseract.4ds"] {
         let c = Compilation::from_path(Path::new(example));
         let scene = c.scene.as_ref().expect("the example compiles");
-        let compiled = Compiled::new(scene);
-        let features = Features::of(&compiled);
+        let frames = Frames::new(scene);
         for f in 0..scene.render.frames {
-            let fs = FrameScene::new(
-                scene,
-                &compiled,
-                features,
-                frame_time(f, scene.render.frames),
-            );
+            let fs = frames.frame(f, Build::marcher(MarcherKind::Cells));
             let mut rendered = format!("{}\n", fs.scene);
             if let Some(t) = &fs.interior {
                 rendered += &format!("{t}\n");
@@ -709,15 +704,17 @@ fn emitted_bytecode_is_what_each_frame_renders() {
 #[test]
 fn pruned_cells_agree_with_the_whole_tape() {
     use glam::DVec4;
-    use hyperslice::render::frame::{Features, FrameScene};
+    use hyperslice::compile::Frames;
+    use hyperslice::render::frame::Build;
+    use hyperslice::render::march::MarcherKind;
     let mut rng = Pcg64Mcg::seed_from_u64(12);
     let (mut checked, mut pruned, mut cuts) = (0usize, 0usize, 0usize);
     let mut partial_points = 0usize;
     for file in scene_files() {
         let scene = compile_file(&file);
-        let compiled = hyperslice::compile::Compiled::new(&scene);
+        let frames = Frames::new(&scene);
         for t in [0.0, 1.0] {
-            let fs = FrameScene::new(&scene, &compiled, Features::of(&compiled), t);
+            let fs = frames.at(t, Build::marcher(MarcherKind::Cells));
             let mut one = Regs::<f32, 1>::new(&fs.scene);
             let cam = fs.camera.position;
             let mut points: Vec<DVec4> = (0..400)
@@ -1021,8 +1018,8 @@ fn only_distances_become_exact_spheres() {
 /// measure). The probe stays small whatever the image's shape.
 #[test]
 fn frames_march_through_cells_only_where_they_pay() {
-    use hyperslice::compile::Compiled;
-    use hyperslice::render::frame::{Features, FrameScene};
+    use hyperslice::compile::Frames;
+    use hyperslice::render::frame::Build;
     use hyperslice::render::march::MarcherKind;
     let far = "render { size = 64 x 48 }\n\
                camera { from = [1e6, 0, -5, 0]  to = [1e6, 0, 0, 0] }\n\
@@ -1054,9 +1051,8 @@ fn frames_march_through_cells_only_where_they_pay() {
     for (c, cells) in cases {
         assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
         let scene = c.scene.expect("a scene");
-        let compiled = Compiled::new(&scene);
-        let features = Features::of(&compiled);
-        let fs = FrameScene::for_marcher(&scene, &compiled, features, 0.0, MarcherKind::Auto);
+        let frames = Frames::new(&scene);
+        let fs = frames.at(0.0, Build::marcher(MarcherKind::Auto));
         let probe = fs.probe.expect("the default marcher probes");
         assert_eq!(fs.cells.is_some(), cells, "{probe:?}");
         assert!(probe.cells.rays <= 3 * 24 * 24, "{probe:?}");

@@ -5,8 +5,9 @@
 
 use glam::DVec4;
 use hyperslice::Compilation;
-use hyperslice::compile::Compiled;
-use hyperslice::render::frame::{Features, FrameScene};
+use hyperslice::compile::{Compiled, Frames};
+use hyperslice::render::frame::{Build, FrameScene};
+use hyperslice::render::march::MarcherKind;
 use hyperslice::scene::Scene;
 use hyperslice::vm::{self, LANES, Regs, Tape};
 
@@ -68,8 +69,8 @@ pub struct VmCells {
 impl VmCells {
     pub fn compile(source: &str) -> VmCells {
         let scene = checked(source);
-        let compiled = Compiled::new(&scene);
-        let frame = FrameScene::new(&scene, &compiled, Features::of(&compiled), 0.0);
+        let frames = Frames::new(&scene);
+        let frame = frames.at(0.0, Build::marcher(MarcherKind::Cells));
         VmCells {
             batch: Regs::new(&frame.scene),
             frame,

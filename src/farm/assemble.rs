@@ -9,7 +9,7 @@ use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
 use crate::output::{self, OutputSettings, Written};
-use crate::render::driver::{self, Monitor, Options, Unit};
+use crate::render::driver::{self, Monitor, Unit};
 use crate::render::integrator::Stats;
 use crate::scene::Denoise;
 use std::collections::BTreeMap;
@@ -253,10 +253,10 @@ pub fn assemble(films: &Films, finish: &Finish, out: &Path, monitor: Monitor) ->
 }
 
 /// Denoise frames rendered in memory with `denoise`, across neighbouring frames as
-/// [`assemble`] does, on `options`' worker threads.
-pub fn denoise_frames(frames: &mut [Film], denoise: Denoise, options: &Options) -> Result<()> {
+/// [`assemble`] does, on `threads` worker threads (`None`: one per core).
+pub fn denoise_frames(frames: &mut [Film], denoise: Denoise, threads: Option<usize>) -> Result<()> {
     let opts = AtrousOptions::default();
-    driver::pool(options)?.install(|| crate::denoise::denoise(frames, denoise, &opts));
+    driver::pool(threads)?.install(|| crate::denoise::denoise(frames, denoise, &opts));
     Ok(())
 }
 

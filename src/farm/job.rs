@@ -11,6 +11,7 @@ use super::assemble::{self, Films, Finish};
 use super::films::{FilmDir, Survey};
 use super::memory;
 use super::plan::Part;
+use crate::compile;
 use crate::error::{Error, Result};
 use crate::output::{self, Written};
 use crate::render::driver::{self, Monitor, Options, Unit};
@@ -441,6 +442,7 @@ impl Job {
             dir: &dir,
         });
         let started = Instant::now();
+        let compiled = compile::Frames::new(&self.scene);
         let rendered = {
             let shared: &dyn Report = report;
             let progress = |n: u64| shared.samples(n);
@@ -448,7 +450,7 @@ impl Job {
                 progress: &progress,
                 cancel,
             };
-            driver::render_units(&self.scene, &options, &todo, &films, monitor)
+            driver::render_units(&compiled, &options, &todo, &films, monitor)
         };
         report.rendered();
         let render_secs = started.elapsed().as_secs_f64();

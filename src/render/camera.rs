@@ -4,7 +4,6 @@
 
 use crate::math::Plane;
 use crate::math::plane::rotate;
-use crate::scene::Camera;
 use glam::DVec4;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -19,18 +18,16 @@ pub struct FrameCamera {
 }
 
 impl FrameCamera {
-    /// The camera at animation time `t` (0 on the first frame, 1 on the last), given the
-    /// `look` rotations' angles at that time. The position moves linearly from `from` to `to`.
-    pub fn new(camera: &Camera, t: f64, look: &[(Plane, f64)]) -> FrameCamera {
-        let from = DVec4::from_array(camera.from);
-        let to = DVec4::from_array(camera.to);
+    /// The camera at `position` with a horizontal field of view of `fov` radians, turned by
+    /// the `look` rotations (with their angles at this frame).
+    pub fn new(position: DVec4, fov: f64, look: &[(Plane, f64)]) -> FrameCamera {
         // Each rotation turns the axes in order, the first applied first.
         let axes = [DVec4::X, DVec4::Y, DVec4::Z, DVec4::W]
             .map(|v| DVec4::from_array(rotate(v.to_array(), look.iter().copied())));
         FrameCamera {
-            position: from + (to - from) * t,
+            position,
             axes,
-            half_width: (camera.fov / 2.0).tan(),
+            half_width: (fov / 2.0).tan(),
         }
     }
 

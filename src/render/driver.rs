@@ -15,16 +15,13 @@
 //! The driver renders and keeps the work, nothing more: denoising and encoding the frames is
 //! the finishing stage ([`crate::farm::assemble`]).
 
-use super::frame::{Features, FrameScene};
+use super::frame::{Build, FrameScene, FrameSource, Shot};
 use super::integrator::{self, Scratch, Settings, Stack, Stats, Tile};
-use super::march::Limits;
 use super::march::MarcherKind;
 use super::sampler::SamplerKind;
-use crate::compile::{Compiled, frame_time};
 use crate::error::{Error, Result};
 use crate::film::{Film, PixelSums};
 use crate::math::color::luminance;
-use crate::scene::Scene;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -39,7 +36,7 @@ pub const FRAME_GROUP: usize = 16;
 /// Choices of a render that are not part of the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Options {
-    /// Worker threads; `None` uses every core.
+    /// Worker threads; `None` uses the scene's (every core unless it sets `threads`).
     pub threads: Option<usize>,
     /// Russian roulette from this many bounces on (`u32::MAX` turns it off, which makes
     /// closed furnaces deterministic).
@@ -154,12 +151,6 @@ impl Store for MemoryStore {
             .insert(progress.unit.clone(), progress.clone());
         Ok(())
     }
-}
-
-/// Samples a render takes at most, for progress bars.
-pub fn total_samples(scene: &Scene) -> u64 {
-    let r = &scene.render;
-    r.width as u64 * r.height as u64 * r.spp as u64 * r.frames as u64
 }
 
 /// Samples of a pass when the render is not progressive: passes only set how often the work is
@@ -280,36 +271,35 @@ impl Monitor<'_> {
 }
 
 /// Every sample of every frame, as units.
-pub fn whole(scene: &Scene) -> Vec<Unit> {
-    let r = &scene.render;
-    (0..r.frames)
+pub fn whole(shot: &Shot) -> Vec<Unit> {
+    (0..shot.frames)
         .map(|frame| Unit {
             frame,
-            samples: 0..r.spp,
+            samples: 0..shot.spp,
         })
         .collect()
 }
 
-/// Every frame of `scene` rendered in memory: the films as the samples left them, and the
+/// Every frame of `frames` rendered in memory: the films as the samples left them, and the
 /// counts of the work. Denoising is the finishing stage's ([`crate::farm::assemble`]).
 pub fn render_films(
-    scene: &Scene,
+    frames: &dyn FrameSource,
     options: &Options,
     monitor: Monitor,
 ) -> Result<(Vec<Film>, Stats)> {
     let store = MemoryStore::default();
-    let stats = render_units(scene, options, &whole(scene), &store, monitor)?;
-    let r = &scene.render;
-    let frames = (store.into_map().into_values())
-        .map(|p| Film::from_sums(r.width as usize, r.height as usize, &p.sums))
+    let shot = frames.shot();
+    let stats = render_units(frames, options, &whole(shot), &store, monitor)?;
+    let films = (store.into_map().into_values())
+        .map(|p| Film::from_sums(shot.width as usize, shot.height as usize, &p.sums))
         .collect();
-    Ok((frames, stats))
+    Ok((films, stats))
 }
 
-/// The pool of `options.threads` worker threads.
-pub(crate) fn pool(options: &Options) -> Result<rayon::ThreadPool> {
+/// The pool of worker threads: `threads`, or one per core.
+pub(crate) fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = options.threads {
+    if let Some(n) = threads {
         builder = builder.num_threads(n);
     }
     builder.build().map_err(Error::Threads)
@@ -319,25 +309,24 @@ pub(crate) fn pool(options: &Options) -> Result<rayon::ThreadPool> {
 /// as it finishes. Returns the counts of the work done in this call. Frames go through a few
 /// at a time, so memory does not grow with their number.
 pub fn render_units(
-    scene: &Scene,
+    frames: &dyn FrameSource,
     options: &Options,
     units: &[Unit],
     store: &dyn Store,
     monitor: Monitor,
 ) -> Result<Stats> {
     let start = Instant::now();
-    let pool = pool(options)?;
-    let r = &scene.render;
-    let compiled = Compiled::new(scene);
-    let mut features = Features::of(&compiled);
-    if options.general {
-        features.interiors = true;
-    }
+    let r = frames.shot();
+    let pool = pool(options.threads.or(r.threads))?;
+    let build = Build {
+        marcher: options.marcher,
+        general: options.general,
+    };
     let settings = Settings {
         width: r.width,
         height: r.height,
         bounces: r.bounces,
-        limits: Limits::of(r),
+        limits: r.limits,
         seed: r.seed,
         roulette_from: options.roulette_from,
         light_sampling: options.light_sampling,
@@ -380,15 +369,13 @@ pub fn render_units(
             Instant::now() + left.mul_f64(batch.len() as f64 / remaining as f64)
         });
         remaining -= batch.len();
-        // The scene is not `Sync` (its fields share subtrees), so frames are prepared in turn.
-        let mut work: Vec<Work> = {
+        // Frames are prepared in parallel: pruning, compiling and probing are real work.
+        let mut work: Vec<Work> = pool.install(|| {
             batch
-                .into_iter()
+                .into_par_iter()
                 .map(|(unit, earlier)| {
-                    let t = frame_time(unit.frame, r.frames);
-                    let fs =
-                        FrameScene::for_marcher(scene, &compiled, features, t, options.marcher);
-                    let initial = Stack::at_camera(&fs, r.epsilon);
+                    let fs = frames.frame(unit.frame, build);
+                    let initial = Stack::at_camera(&fs, r.limits.epsilon);
                     let (sums, stats) = match earlier {
                         Some(p) => (tiled(&p.sums, &tiles, r.width), p.stats),
                         None => (
@@ -408,7 +395,7 @@ pub fn render_units(
                     }
                 })
                 .collect()
-        };
+        });
         let samples = work[0].unit.samples.clone();
         debug_assert!(work.iter().all(|w| w.unit.samples == samples));
         for pass in passes(samples.clone(), progressive) {

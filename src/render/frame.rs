@@ -1,16 +1,15 @@
-//! Everything the integrator needs for one frame: the tapes with that frame's `t` folded in,
-//! the camera, each object's material layout, and which features the scene uses.
+//! What the renderer takes from the compile stage: the shot's settings and, per frame, the
+//! tapes with that frame's `t` folded in, the cells, the camera, each object's material
+//! layout, the lights, the media and which features the scene uses. Nothing here reads the
+//! scene or its IR: the compile stage (`compile::Frames`) builds these.
 
 use super::camera::FrameCamera;
-use super::lights::{Lights, SphereLight};
+use super::lights::Lights;
 use super::march::{Field, Limits, MarcherKind};
-use super::material::{Layout, Medium, Surface};
+use super::material::{Layout, Medium};
 use super::probe::Probe;
-use crate::compile::{Compiled, LightPlacement};
-use crate::ir::SceneIr;
-use crate::scene::Scene;
 use crate::vm::Tape;
-use crate::vm::cells::{Cells, Roots};
+use crate::vm::cells::Cells;
 use crate::vm::escape::Escape;
 use glam::{DVec3, DVec4};
 
@@ -64,149 +63,78 @@ pub struct FrameScene {
     pub probe: Option<Probe>,
 }
 
-impl FrameScene {
-    /// The frame at animation time `t`: its compiled program, camera, media and lights, for
-    /// the cells' marcher.
-    pub fn new(scene: &Scene, compiled: &Compiled, features: Features, t: f64) -> FrameScene {
-        FrameScene::for_marcher(scene, compiled, features, t, MarcherKind::Cells)
-    }
+/// Every setting of the render the scene makes: the image, its samples and frames, the
+/// random streams' seed, the bounces and the marching limits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Shot {
+    /// Image width in pixels.
+    pub width: u32,
+    /// Image height in pixels.
+    pub height: u32,
+    /// Frames of the animation.
+    pub frames: u32,
+    /// Samples per pixel.
+    pub spp: u32,
+    /// Most scattering events of one path.
+    pub bounces: u32,
+    /// Seeds every sample's random stream (with the frame, pixel and sample index).
+    pub seed: u64,
+    /// Marching epsilon and step limit.
+    pub limits: Limits,
+    /// Worker threads the scene asks for; `None` for every core.
+    pub threads: Option<usize>,
+}
 
-    /// The frame at `t`, with cells only where `marcher` marches through them (for `Auto`,
-    /// where the frame's probe shows that they pay: `render::probe`).
-    pub fn for_marcher(
-        scene: &Scene,
-        compiled: &Compiled,
-        features: Features,
-        t: f64,
-        marcher: MarcherKind,
-    ) -> FrameScene {
-        let frame = compiled.frame(t);
-        let program = frame.program;
-        let objects: Vec<FrameObject> = (program.objects.into_iter())
-            .zip(&program.ir.objects)
-            .map(|(o, ir)| FrameObject {
-                distance: o.distance,
-                material: o.material,
-                layout: Layout::new(&ir.material.leaves),
-            })
-            .collect();
-        let lights = (frame.lights.iter())
-            .filter_map(|l| sphere_light(l, &objects[l.object], t))
-            .collect();
-        let camera = FrameCamera::new(&scene.camera, t, &frame.look);
-        let (cells, escape) = cells(
-            &program.ir,
-            &compiled.bounds,
-            (camera.position, t),
-            scene.render.epsilon,
+impl Shot {
+    /// Samples the whole render takes at most, for progress bars.
+    pub fn total_samples(&self) -> u64 {
+        self.width as u64 * self.height as u64 * self.spp as u64 * self.frames as u64
+    }
+}
+
+/// How a frame is built: the render's choices that are not the scene's.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Build {
+    /// How its rays are marched, so cells are built only for a marcher that uses them.
+    pub marcher: MarcherKind,
+    /// Every feature's code path, even where the scene does not need it.
+    pub general: bool,
+}
+
+impl Build {
+    /// A frame for `marcher`, with only the features the scene uses.
+    pub fn marcher(marcher: MarcherKind) -> Build {
+        Build {
             marcher,
+            general: false,
+        }
+    }
+}
+
+/// What the compile stage hands the renderer: the shot's settings, and each frame, built on
+/// demand from any thread (the renderer prepares a group of frames in parallel).
+pub trait FrameSource: Sync {
+    /// The render's settings.
+    fn shot(&self) -> &Shot;
+    /// Frame `frame` (0-based), built as `build` asks.
+    fn frame(&self, frame: u32, build: Build) -> FrameScene;
+}
+
+impl FrameScene {
+    /// Under [`MarcherKind::Auto`]: probe the frame's rays and drop its cells where marching
+    /// them would not pay (`render::probe`), keeping what the probe found.
+    pub fn choose_marcher(&mut self, shot: &Shot) {
+        let probe = Probe::run(
+            self.field(),
+            &self.camera,
+            &self.objects,
+            (shot.width, shot.height),
+            shot.limits,
         );
-        let mut fs = FrameScene {
-            t,
-            camera,
-            cells,
-            escape,
-            scene: program.scene,
-            interior: program.interior,
-            lights: Lights::new(lights, objects.len()),
-            objects,
-            medium: Medium::of_material(&scene.medium),
-            sky: DVec3::from_array(scene.sky),
-            features,
-            relax: marcher != MarcherKind::Plain,
-            probe: None,
-        };
-        if marcher == MarcherKind::Auto {
-            let r = &scene.render;
-            let probe = Probe::run(
-                fs.field(),
-                &fs.camera,
-                &fs.objects,
-                (r.width, r.height),
-                Limits::of(r),
-            );
-            if !probe.cells_pay() {
-                fs.cells = None;
-            }
-            fs.probe = Some(probe);
+        if !probe.cells_pay() {
+            self.cells = None;
         }
-        fs
-    }
-}
-
-/// The cells of a frame (for the cells' marcher): a cube around the camera and every bounded
-/// object, twice their extent, so rays near them and on the ground between them use pruned
-/// tapes; and the proof of escape from the box of the bounded objects.
-fn cells(
-    ir: &SceneIr,
-    bounds: &[Option<([f64; 4], f64)>],
-    (camera, t): (DVec4, f64),
-    epsilon: f64,
-    marcher: MarcherKind,
-) -> (Option<Cells>, Escape) {
-    let (mut lo, mut hi) = (camera, camera);
-    let mut unbounded = vec![];
-    for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
-        if o.material.is_air() {
-            continue;
-        }
-        match b {
-            Some((c, r)) if r.is_finite() && c.iter().all(|x| x.is_finite()) => {
-                let c = DVec4::from_array(*c);
-                lo = lo.min(c - DVec4::splat(*r));
-                hi = hi.max(c + DVec4::splat(*r));
-            }
-            _ => unbounded.push((i, o.distance)),
-        }
-    }
-    let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
-    let scene = (ir.distance, ir.nearest);
-    let escape = Escape::new(&ir.graph, (lo, hi), &distances, (scene, ir.interior), t);
-    if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
-        return (None, escape);
-    }
-    let roots = Roots {
-        scene: (ir.distance, ir.nearest),
-        interior: ir.interior,
-        objects: ir.objects.iter().map(|o| o.distance).collect(),
-    };
-    let size = 2.0 * (hi - lo).max_element().max(1.0);
-    let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
-    let cube = (corner, size);
-    let cells = Cells::new(&ir.graph, roots, cube, &unbounded, epsilon);
-    (Some(cells), escape)
-}
-
-impl Features {
-    /// What the compiled scene uses.
-    pub fn of(compiled: &Compiled) -> Features {
-        Features {
-            interiors: compiled.ir.interior.is_some(),
-        }
-    }
-}
-
-/// A placed light with its radiance, read from its material tape (it is constant over the
-/// surface); `None` if that material is not a light at this frame.
-fn sphere_light(l: &LightPlacement, o: &FrameObject, t: f64) -> Option<SphereLight> {
-    let center = DVec4::from_array(l.center);
-    let mut regs = crate::vm::Regs::<f32, 1>::new(&o.material);
-    let p = center + DVec4::X * l.radius;
-    let out = crate::vm::eval_point(
-        &o.material,
-        &mut regs,
-        p.as_vec4().to_array(),
-        [1.0, 0.0, 0.0, 0.0],
-        t as f32,
-    );
-    match o.layout.surface(&out) {
-        Surface::Light { radiance } => Some(SphereLight {
-            center,
-            radius: l.radius,
-            radiance,
-            object: l.object as u32,
-        }),
-        _ => None,
+        self.probe = Some(probe);
     }
 }
 

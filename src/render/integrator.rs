@@ -32,7 +32,6 @@ use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::film::PixelSums;
-use crate::ir::Var;
 use crate::vm::cells::{Cell, epsilon_at};
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
@@ -415,13 +414,9 @@ fn trace(
                 normals_of(chunk, object, grad, normals);
                 let n_out = object.material.outputs.len();
                 regs.fit(&object.material);
-                *regs.input(Var::T.index()) = [fs.t as f32; LANES];
+                regs.set_time(fs.t as f32);
                 for (lane, (h, n)) in chunk.iter().zip(normals.iter()).enumerate() {
-                    let (p, n) = (h.p.as_vec4(), n.as_vec4());
-                    for axis in 0..4 {
-                        regs.input(Var::POINT[axis].index())[lane] = p[axis];
-                        regs.input(Var::NORMAL[axis].index())[lane] = n[axis];
-                    }
+                    regs.set_point(lane, h.p.as_vec4().to_array(), n.as_vec4().to_array());
                 }
                 run(&object.material, regs);
                 for (lane, (h, &n)) in chunk.iter().zip(normals.iter()).enumerate() {

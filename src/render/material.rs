@@ -1,8 +1,7 @@
 //! Materials as the integrator sees them at one point: read from the outputs of an object's
 //! material tape (selector, then every leaf's parameters), or from the scene's constant medium.
 
-use crate::ir::lower::Leaf;
-use crate::scene::{Material, Param, Slot};
+use crate::material::{Material, Slot};
 use glam::DVec3;
 
 /// What a hit point scatters like.
@@ -96,27 +95,11 @@ impl Medium {
     pub fn is_vacuum(&self) -> bool {
         self.sigma_t <= 0.0
     }
-
-    /// The scene's global medium (`air` or a constant `fog`).
-    pub fn of_material(m: &Material) -> Medium {
-        match m {
-            Material::Fog {
-                extinction: Param::Const(sigma_t),
-                albedo: Param::Const(albedo),
-                anisotropy: Param::Const(g),
-            } => Medium {
-                sigma_t: *sigma_t,
-                albedo: DVec3::from_array(*albedo),
-                g: *g,
-            },
-            _ => Medium::VACUUM,
-        }
-    }
 }
 
 /// A parameter's first output in a material tape, and the builtin table's default that stands
 /// in for a non-finite value.
-type At = (usize, f64);
+pub type At = (usize, f64);
 
 /// Where each leaf's parameters sit among a material tape's outputs: each number's output,
 /// and each colour's first of three.
@@ -126,22 +109,9 @@ pub struct Layout {
 }
 
 impl Layout {
-    /// The layout of a material tape whose outputs are the selector, then `leaves`'
-    /// parameters in order.
-    pub fn new(leaves: &[Leaf]) -> Layout {
-        let mut at = 1; // output 0 is the selector
-        let mut next = |n: usize| {
-            at += n;
-            at - n
-        };
-        let leaves = (leaves.iter())
-            .map(|l| {
-                l.map(|spec, p| match p {
-                    Slot::Num(_) => Slot::Num((next(1), spec.default.num())),
-                    Slot::Color(_) => Slot::Color((next(3), spec.default.num())),
-                })
-            })
-            .collect();
+    /// The layout of a material tape whose outputs are the selector (output 0), then every
+    /// leaf's parameters at the outputs `leaves` gives.
+    pub fn new(leaves: Vec<Material<At, At>>) -> Layout {
         Layout { leaves }
     }
 

@@ -8,10 +8,10 @@
 
 use super::median;
 use crate::Compilation;
-use crate::compile::Compiled;
+use crate::compile::Frames;
 use crate::error::Result;
 use crate::render::driver::{Monitor, Options};
-use crate::render::frame::{Features, FrameScene};
+use crate::render::frame::Build;
 use crate::render::march::MarcherKind;
 use crate::render::probe::Choice;
 use crate::scene::{Denoise, Scene};
@@ -179,14 +179,7 @@ pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> 
             out_of_steps[i] = rendered.stats.out_of_steps;
         }
     }
-    let compiled = Compiled::new(scene);
-    let first = FrameScene::for_marcher(
-        scene,
-        &compiled,
-        Features::of(&compiled),
-        0.0,
-        MarcherKind::Auto,
-    );
+    let first = Frames::new(scene).at(0.0, Build::marcher(MarcherKind::Auto));
     Ok(Measured {
         choice: first.probe.expect("the default marcher probes").choice(),
         name: name.to_string(),

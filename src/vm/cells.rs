@@ -581,3 +581,21 @@ impl Cell {
         }))
     }
 }
+
+/// The nearest of `pieces` at `p` (local to their cell) and the first the ray along `d`
+/// meets, each as (distance or `t`, object).
+pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4) -> ((f64, f64), (f64, f64)) {
+    let (p, d) = (p.to_array(), d.to_array());
+    let (mut near, mut first) = ((f64::INFINITY, 0.0), (f64::INFINITY, 0.0));
+    for piece in pieces {
+        let at = piece.form.value(p);
+        if at < near.0 {
+            near = (at, piece.object);
+        }
+        match piece.form.first(p, d) {
+            Some(t) if t < first.0 => first = (t, piece.object),
+            _ => {}
+        }
+    }
+    (near, first)
+}

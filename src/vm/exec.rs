@@ -3,7 +3,7 @@
 //! code runs one point (`N = 1`) and forward-mode derivatives (`T = Dual`).
 
 use super::tape::{Instr, Tape};
-use crate::ir::{Bin, Un};
+use crate::ir::{Bin, Un, Var};
 use crate::math::kernel::{self as eval, Real};
 use crate::simd;
 
@@ -28,6 +28,19 @@ impl<T: Real, const N: usize> Regs<T, N> {
 
     pub fn input(&mut self, i: usize) -> &mut [T; N] {
         &mut self.r[i]
+    }
+
+    /// Every lane's time input.
+    pub fn set_time(&mut self, t: T) {
+        *self.input(Var::T.index()) = [t; N];
+    }
+
+    /// Lane `lane`'s point and normal inputs.
+    pub fn set_point(&mut self, lane: usize, p: [T; 4], n: [T; 4]) {
+        for axis in 0..4 {
+            self.input(Var::POINT[axis].index())[lane] = p[axis];
+            self.input(Var::NORMAL[axis].index())[lane] = n[axis];
+        }
     }
 
     pub fn get(&self, reg: super::tape::Reg) -> &[T; N] {

@@ -58,11 +58,8 @@ pub fn eval_point(
     t: f32,
 ) -> Vec<f32> {
     regs.fit(tape);
-    for i in 0..4 {
-        regs.input(Var::POINT[i].index())[0] = p[i];
-        regs.input(Var::NORMAL[i].index())[0] = n[i];
-    }
-    regs.input(Var::T.index())[0] = t;
+    regs.set_point(0, p, n);
+    regs.set_time(t);
     run(tape, regs);
     tape.outputs.iter().map(|o| regs.get(*o)[0]).collect()
 }
@@ -76,7 +73,7 @@ pub fn eval_slices(
     out: &mut [f32],
 ) {
     regs.fit(tape);
-    *regs.input(Var::T.index()) = [t; LANES];
+    regs.set_time(t);
     let n = out.len();
     let mut start = 0;
     while start < n {

@@ -21,9 +21,8 @@
 mod lanes;
 mod plain;
 
-use crate::ir::exact::Piece;
 use crate::vm::Tape;
-use crate::vm::cells::{Cell, Cells, epsilon_at};
+use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
 use crate::vm::escape::{Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
@@ -110,16 +109,6 @@ pub struct Limits {
     pub epsilon: f64,
     /// Most steps one ray segment may take before it is given up (the scene's `max_steps`).
     pub max_steps: u32,
-}
-
-impl Limits {
-    /// The scene's.
-    pub fn of(r: &crate::scene::RenderSettings) -> Limits {
-        Limits {
-            epsilon: r.epsilon,
-            max_steps: r.max_steps,
-        }
-    }
 }
 
 /// The queue's tape class of rays in a partial cell (after 0, the scene's, and 1, the
@@ -481,24 +470,6 @@ fn unrelax(st: &mut State, d: f64) -> Option<Step> {
     let rest = (step + radius - d).clamp(0.0, 2.0 * step);
     st.omega = (SAFETY * 2.0 * step / rest).clamp(1.0, OMEGA_MAX);
     None
-}
-
-/// The nearest of `pieces` at `p` (local to their cell) and the first the ray along `d`
-/// meets, each as (distance or `t`, object).
-fn meet(pieces: &[Piece], p: DVec4, d: DVec4) -> ((f64, f64), (f64, f64)) {
-    let (p, d) = (p.to_array(), d.to_array());
-    let (mut near, mut first) = ((f64::INFINITY, 0.0), (f64::INFINITY, 0.0));
-    for piece in pieces {
-        let at = piece.form.value(p);
-        if at < near.0 {
-            near = (at, piece.object);
-        }
-        match piece.form.first(p, d) {
-            Some(t) if t < first.0 => first = (t, piece.object),
-            _ => {}
-        }
-    }
-    (near, first)
 }
 
 /// A cell's address: which cell a ray's cached state belongs to, and the queue's sort key

@@ -4,7 +4,12 @@
 //! [`Compiled::frame`] folds `t` in, optimises, compiles the scene, interior and per-object
 //! tapes ([`Compiled::program`]), and evaluates the camera's `look` angles and the spherical
 //! lights' placement from the same IR in `f64`. `--emit ir|bytecode` prints exactly this
-//! program, so what a user pins is what is rendered.
+//! program, so what a user pins is what is rendered. [`Frames`] is what the renderer gets:
+//! every frame built from it, cells, camera, materials and lights included.
+
+mod frames;
+
+pub use frames::Frames;
 
 use crate::ir::eval::{Reference, vars};
 use crate::ir::lower::{LightIr, Place};

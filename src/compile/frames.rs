@@ -1,0 +1,236 @@
+//! What the compile stage hands the renderer: a scene's every frame, built on demand from any
+//! thread. [`Frames`] holds the lowered IR, the bounds and the scene's plain settings (it is
+//! `Send + Sync`, unlike the scene, whose fields share subtrees), and builds each frame's
+//! tapes, cells, camera, material layouts, lights and media: the renderer reads nothing else.
+
+use super::{Compiled, LightPlacement, frame_time};
+use crate::ir::SceneIr;
+use crate::ir::lower::Leaf;
+use crate::material::{Material, Slot};
+use crate::render::camera::FrameCamera;
+use crate::render::frame::{Build, Features, FrameObject, FrameScene, FrameSource, Shot};
+use crate::render::lights::{Lights, SphereLight};
+use crate::render::march::{Limits, MarcherKind};
+use crate::render::material::{Layout, Medium, Surface};
+use crate::scene::{Param, Scene};
+use crate::vm::cells::{Cells, Roots};
+use crate::vm::escape::Escape;
+use glam::{DVec3, DVec4};
+
+/// A scene compiled for rendering: what every frame is built from.
+#[derive(Clone, Debug)]
+pub struct Frames {
+    /// The scene lowered to IR, and its objects' bounds.
+    pub compiled: Compiled,
+    /// The render's settings.
+    pub shot: Shot,
+    /// The camera's position on the first and the last frame.
+    from_to: (DVec4, DVec4),
+    /// Horizontal field of view in radians.
+    fov: f64,
+    /// The medium filling the world outside objects.
+    medium: Medium,
+    /// Radiance of rays that leave the scene.
+    sky: DVec3,
+}
+
+impl Frames {
+    /// Lower `scene` once, and keep what its frames are built from.
+    pub fn new(scene: &Scene) -> Frames {
+        let r = &scene.render;
+        Frames {
+            compiled: Compiled::new(scene),
+            shot: Shot {
+                width: r.width,
+                height: r.height,
+                frames: r.frames,
+                spp: r.spp,
+                bounces: r.bounces,
+                seed: r.seed,
+                limits: Limits {
+                    epsilon: r.epsilon,
+                    max_steps: r.max_steps,
+                },
+                threads: (r.threads > 0).then_some(r.threads as usize),
+            },
+            from_to: (
+                DVec4::from_array(scene.camera.from),
+                DVec4::from_array(scene.camera.to),
+            ),
+            fov: scene.camera.fov,
+            medium: medium(&scene.medium),
+            sky: DVec3::from_array(scene.sky),
+        }
+    }
+
+    /// The frame at animation time `t` (0 on the first frame, 1 on the last): its tapes with
+    /// `t` folded in, its camera, media and lights, and cells where `build`'s marcher marches
+    /// through them (for `Auto`, where the frame's probe shows that they pay).
+    pub fn at(&self, t: f64, build: Build) -> FrameScene {
+        let compiled = &self.compiled;
+        let frame = compiled.frame(t);
+        let program = frame.program;
+        let objects: Vec<FrameObject> = (program.objects.into_iter())
+            .zip(&program.ir.objects)
+            .map(|(o, ir)| FrameObject {
+                distance: o.distance,
+                material: o.material,
+                layout: layout(&ir.material.leaves),
+            })
+            .collect();
+        let lights = (frame.lights.iter())
+            .filter_map(|l| sphere_light(l, &objects[l.object], t))
+            .collect();
+        let (from, to) = self.from_to;
+        let camera = FrameCamera::new(from + (to - from) * t, self.fov, &frame.look);
+        let (cells, escape) = cells(
+            &program.ir,
+            &compiled.bounds,
+            (camera.position, t),
+            self.shot.limits.epsilon,
+            build.marcher,
+        );
+        let features = Features {
+            interiors: build.general || compiled.ir.interior.is_some(),
+        };
+        let mut fs = FrameScene {
+            t,
+            camera,
+            cells,
+            escape,
+            scene: program.scene,
+            interior: program.interior,
+            lights: Lights::new(lights, objects.len()),
+            objects,
+            medium: self.medium,
+            sky: self.sky,
+            features,
+            relax: build.marcher != MarcherKind::Plain,
+            probe: None,
+        };
+        if build.marcher == MarcherKind::Auto {
+            fs.choose_marcher(&self.shot);
+        }
+        fs
+    }
+}
+
+impl FrameSource for Frames {
+    fn shot(&self) -> &Shot {
+        &self.shot
+    }
+
+    fn frame(&self, frame: u32, build: Build) -> FrameScene {
+        self.at(frame_time(frame, self.shot.frames), build)
+    }
+}
+
+/// The layout of a material tape whose outputs are the selector, then `leaves`' parameters in
+/// order: each number's output, and each colour's first of three, with the builtin table's
+/// default that stands in for a non-finite value.
+fn layout(leaves: &[Leaf]) -> Layout {
+    let mut at = 1; // output 0 is the selector
+    let mut next = |n: usize| {
+        at += n;
+        at - n
+    };
+    let leaves: Vec<Material<_, _>> = (leaves.iter())
+        .map(|l| {
+            l.map(|spec, p| match p {
+                Slot::Num(_) => Slot::Num((next(1), spec.default.num())),
+                Slot::Color(_) => Slot::Color((next(3), spec.default.num())),
+            })
+        })
+        .collect();
+    Layout::new(leaves)
+}
+
+/// The scene's global medium (`air` or a constant `fog`).
+fn medium(m: &crate::scene::Material) -> Medium {
+    match m {
+        Material::Fog {
+            extinction: Param::Const(sigma_t),
+            albedo: Param::Const(albedo),
+            anisotropy: Param::Const(g),
+        } => Medium {
+            sigma_t: *sigma_t,
+            albedo: DVec3::from_array(*albedo),
+            g: *g,
+        },
+        _ => Medium::VACUUM,
+    }
+}
+
+/// The cells of a frame (for the cells' marcher): a cube around the camera and every bounded
+/// object, twice their extent, so rays near them and on the ground between them use pruned
+/// tapes; and the proof of escape from the box of the bounded objects.
+fn cells(
+    ir: &SceneIr,
+    bounds: &[Option<([f64; 4], f64)>],
+    (camera, t): (DVec4, f64),
+    epsilon: f64,
+    marcher: MarcherKind,
+) -> (Option<Cells>, Escape) {
+    let (mut lo, mut hi) = (camera, camera);
+    let mut unbounded = vec![];
+    for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
+        if o.material.is_air() {
+            continue;
+        }
+        match b {
+            Some((c, r)) if r.is_finite() && c.iter().all(|x| x.is_finite()) => {
+                let c = DVec4::from_array(*c);
+                lo = lo.min(c - DVec4::splat(*r));
+                hi = hi.max(c + DVec4::splat(*r));
+            }
+            _ => unbounded.push((i, o.distance)),
+        }
+    }
+    let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
+    let scene = (ir.distance, ir.nearest);
+    let escape = Escape::new(&ir.graph, (lo, hi), &distances, (scene, ir.interior), t);
+    if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
+        return (None, escape);
+    }
+    let roots = Roots {
+        scene: (ir.distance, ir.nearest),
+        interior: ir.interior,
+        objects: ir.objects.iter().map(|o| o.distance).collect(),
+    };
+    let size = 2.0 * (hi - lo).max_element().max(1.0);
+    let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
+    let cube = (corner, size);
+    let cells = Cells::new(&ir.graph, roots, cube, &unbounded, epsilon);
+    (Some(cells), escape)
+}
+
+/// A placed light with its radiance, read from its material tape (it is constant over the
+/// surface); `None` if that material is not a light at this frame.
+fn sphere_light(l: &LightPlacement, o: &FrameObject, t: f64) -> Option<SphereLight> {
+    let center = DVec4::from_array(l.center);
+    let mut regs = crate::vm::Regs::<f32, 1>::new(&o.material);
+    let p = center + DVec4::X * l.radius;
+    let out = crate::vm::eval_point(
+        &o.material,
+        &mut regs,
+        p.as_vec4().to_array(),
+        [1.0, 0.0, 0.0, 0.0],
+        t as f32,
+    );
+    match o.layout.surface(&out) {
+        Surface::Light { radiance } => Some(SphereLight {
+            center,
+            radius: l.radius,
+            radiance,
+            object: l.object as u32,
+        }),
+        _ => None,
+    }
+}
+
+// The renderer builds a group of frames on its worker threads and shares each across them.
+const _: fn() = || {
+    fn send_sync<T: Send + Sync>() {}
+    send_sync::<Frames>();
+    send_sync::<FrameScene>();
+};
