@@ -17,7 +17,10 @@
 //!   normal or the frame variable `t` as field expressions.
 //! - [`Compiled`] lowers the scene once; for each frame it folds `t` in, optimises and compiles
 //!   the tapes the renderer runs, and places the lights. `hyperslice compile --emit ir|bytecode`
-//!   prints exactly these.
+//!   prints exactly these. [`compile::Frames`] is the hand-off: `Send + Sync`, it builds each
+//!   frame the renderer takes (tapes, cells, camera, material layouts, lights, media) and the
+//!   render's settings; [`render::driver`] reads nothing else, through
+//!   [`render::frame::FrameSource`].
 //! - [`render()`] path-traces every frame on a thread pool (bit-identical whatever the number of
 //!   threads), reporting progress and stopping when asked; [`write()`] encodes the frames.
 //! - For long renders, [`farm`] splits the work into units (frames, or sample ranges of frames)
