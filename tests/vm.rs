@@ -670,7 +670,9 @@ fn tapes_hold_only_what_their_roots_need() {
 }
 
 /// `--emit bytecode` for a frame prints exactly the tapes the renderer builds for that frame
-/// (scene, interior, every object), for every frame of an animated scene with glass and lights.
+/// (scene, interior, every object), for every frame of an animated scene with glass and lights:
+/// those the whole-tape marchers run, and the objects' normals and materials. The cells'
+/// marcher runs tapes pruned per cell (`emitted_cell_bytecode_is_what_the_marcher_runs`).
 #[test]
 fn emitted_bytecode_is_what_each_frame_renders() {
     use hyperslice::At;
