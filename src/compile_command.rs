@@ -19,6 +19,10 @@ pub struct CompileArgs {
     /// For `ir` and `bytecode`: the animation time `t` whose tapes to show (0 to 1).
     #[arg(long, allow_hyphen_values = true, value_parser = parse_t)]
     t: Option<f64>,
+    /// For `bytecode`: instead of the whole tapes, those of the cell that the cells' marcher
+    /// runs at the point X,Y,Z,W (world coordinates) in that frame.
+    #[arg(long, value_name = "X,Y,Z,W", allow_hyphen_values = true, value_parser = parse_point)]
+    cell: Option<[f64; 4]>,
     /// Write the text to FILE (atomically) instead of standard output.
     #[arg(long, value_name = "FILE", conflicts_with = "check")]
     out: Option<PathBuf>,
@@ -38,6 +42,27 @@ fn parse_t(s: &str) -> Result<f64, String> {
         Ok(t) if t.is_finite() => Err(format!("`{s}` is out of range: {range}")),
         _ => Err(format!("`{s}` is not a number: {range}")),
     }
+}
+
+/// `--cell`: a point as four finite numbers separated by commas.
+fn parse_point(s: &str) -> Result<[f64; 4], String> {
+    let form = "--cell takes a point as four finite numbers X,Y,Z,W, such as 0,1.5,-2,0";
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 4 {
+        return Err(format!(
+            "`{s}` has {} coordinate{}: {form}",
+            parts.len(),
+            if parts.len() == 1 { "" } else { "s" }
+        ));
+    }
+    let mut point = [0.0; 4];
+    for (x, part) in point.iter_mut().zip(parts) {
+        match part.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => *x = v,
+            _ => return Err(format!("`{}` is not a finite number: {form}", part.trim())),
+        }
+    }
+    Ok(point)
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -73,11 +98,16 @@ pub fn run(args: CompileArgs, color: bool) -> ExitCode {
         );
         return ExitCode::FAILURE;
     }
-    let text = match args.emit {
-        Emit::Ast => Some(c.emit_ast()),
-        Emit::Scene => c.emit_scene(),
-        Emit::Ir => c.emit_ir(at),
-        Emit::Bytecode => c.emit_bytecode(at),
+    let text = match (args.emit, args.cell) {
+        (Emit::Bytecode, Some(p)) => c.emit_cell_bytecode(at, p),
+        (_, Some(_)) => {
+            eprintln!("error: --cell shows the tapes of one cell: use it with --emit bytecode");
+            return ExitCode::from(2);
+        }
+        (Emit::Ast, None) => Some(c.emit_ast()),
+        (Emit::Scene, None) => c.emit_scene(),
+        (Emit::Ir, None) => c.emit_ir(at),
+        (Emit::Bytecode, None) => c.emit_bytecode(at),
     }
     .unwrap_or_default();
     if let Some(path) = &args.out {

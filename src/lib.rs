@@ -313,6 +313,39 @@ impl Compilation {
         self.program(at).map(|p| p.to_string())
     }
 
+    /// `--emit bytecode --cell X,Y,Z,W`: the cell that the cells' marcher (`--marcher cells`,
+    /// and `auto` where its probe keeps the cells) runs at `point` in frame `at`: the deepest
+    /// cell of the frame's tree holding it, or the region outside the tree's cube. Its header
+    /// names the cell, then come its lower bounds, the pieces rays meet exactly and its scene
+    /// and interior tapes (`vm::cells::Cell`'s `Display`). `None` if the scene did not
+    /// compile or `point` is not finite.
+    ///
+    /// Cells are built lazily as rays reach them, but each is the same whatever built it
+    /// first: this builds the frame's tree down to `point`, as a ray there would.
+    pub fn emit_cell_bytecode(&self, at: At, point: [f64; 4]) -> Option<String> {
+        use render::frame::{Features, FrameScene};
+        use render::march::MarcherKind;
+        let scene = self.scene.as_ref()?;
+        if !point.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        let compiled = compile::Compiled::new(scene);
+        let features = Features::of(&compiled);
+        let t = self.time(at)?;
+        let fs = FrameScene::for_marcher(scene, &compiled, features, t, MarcherKind::Cells);
+        let cells = fs.cells.as_ref()?;
+        Some(cells.find(glam::DVec4::from_array(point)).to_string())
+    }
+
+    /// The animation time of frame `at`, if the scene compiled.
+    fn time(&self, at: At) -> Option<f64> {
+        let scene = self.scene.as_ref()?;
+        Some(match at {
+            At::Frame(f) => compile::frame_time(f, scene.render.frames),
+            At::Time(t) => t,
+        })
+    }
+
     /// The scene lowered once, if it compiled.
     pub fn compiled(&self) -> Option<compile::Compiled> {
         self.scene.as_ref().map(compile::Compiled::new)
@@ -321,10 +354,7 @@ impl Compilation {
     /// The tapes of frame `at`, if the scene compiled.
     pub fn program(&self, at: At) -> Option<vm::Program> {
         let scene = self.scene.as_ref()?;
-        let t = match at {
-            At::Frame(f) => compile::frame_time(f, scene.render.frames),
-            At::Time(t) => t,
-        };
+        let t = self.time(at)?;
         Some(compile::Compiled::new(scene).program(Some(t)))
     }
 }

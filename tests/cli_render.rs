@@ -265,6 +265,70 @@ fn compile_picks_the_frame() {
     );
 }
 
+/// `--emit bytecode --cell X,Y,Z,W` prints the cell the cells' marcher runs at a point (its
+/// header, then its tapes); outside the cells' cube, the region there. A malformed point is
+/// refused before anything compiles, naming the value and the flag's form, with clap's exit
+/// code for a bad value (2), as `--cell` without `--emit bytecode` is.
+#[test]
+fn compile_emits_the_cell_at_a_point() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let scene = "sky = rgb(1)\n\
+        object floor { shape = halfspace(normal: [0, 1, 0, 0], offset: -1) }\n\
+        object ball { shape = hypersphere(1) material = glass() }\n";
+    std::fs::write(d.join("ball.4ds"), scene).expect("scene written");
+    let cell = |point: &str, emit: &str| {
+        let o = hyperslice(d, &["compile", "ball.4ds", "--emit", emit, "--cell", point]);
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stdout).into_owned(),
+            stderr(&o),
+        )
+    };
+    let (code, text, err) = cell("0,0.5,0,0", "bytecode");
+    assert_eq!(code, Some(0), "{err}");
+    let header = text.lines().next().expect("a header");
+    assert!(header.starts_with("cell inside the cube: depth "), "{text}");
+    for field in [", lo [", ", size ", ", origin [", ", reach "] {
+        assert!(header.contains(field), "{header}");
+    }
+    assert!(text.contains("\ntape scene: "), "{text}");
+    assert!(text.contains("\ntape interior: "), "{text}");
+    // Not the whole tapes: no object's own.
+    assert!(!text.contains("tape ball"), "{text}");
+    // A negative first coordinate is a point, not a flag; far away is outside the cube, where
+    // only the floor reaches, met exactly.
+    let (code, text, err) = cell("-1e6,0,0,0", "bytecode");
+    assert_eq!(code, Some(0), "{err}");
+    assert!(
+        text.starts_with("cell outside the cube: depth 0, lo [-inf"),
+        "{text}"
+    );
+    assert!(text.contains("exact: 1 piece\n  plane [0 1 0 0]"), "{text}");
+
+    for (point, says) in [
+        ("1,2,3", "`1,2,3` has 3 coordinates"),
+        ("1,2,3,4,5", "has 5 coordinates"),
+        ("", "has 1 coordinate:"),
+        ("1,2,x,4", "`x` is not a finite number"),
+        ("1,2,inf,4", "`inf` is not a finite number"),
+        ("NaN,0,0,0", "`NaN` is not a finite number"),
+    ] {
+        let (code, text, err) = cell(point, "bytecode");
+        assert_eq!(code, Some(2), "{point}: {err}");
+        assert!(text.is_empty(), "{text}");
+        assert!(err.contains(says), "{point}: {err}");
+        assert!(
+            err.contains("--cell takes a point as four finite numbers X,Y,Z,W"),
+            "{err}"
+        );
+        assert!(!err.contains("panicked"), "{err}");
+    }
+    let (code, _, err) = cell("0,0,0,0", "ir");
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("use it with --emit bytecode"), "{err}");
+}
+
 /// A scene in which nothing gives off light renders black: `check` and `render` both say so,
 /// and say how to light it.
 #[test]

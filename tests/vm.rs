@@ -670,7 +670,9 @@ fn tapes_hold_only_what_their_roots_need() {
 }
 
 /// `--emit bytecode` for a frame prints exactly the tapes the renderer builds for that frame
-/// (scene, interior, every object), for every frame of an animated scene with glass and lights.
+/// (scene, interior, every object), for every frame of an animated scene with glass and lights:
+/// those the whole-tape marchers run, and the objects' normals and materials. The cells'
+/// marcher runs tapes pruned per cell (`emitted_cell_bytecode_is_what_the_marcher_runs`).
 #[test]
 fn emitted_bytecode_is_what_each_frame_renders() {
     use hyperslice::At;
@@ -694,6 +696,122 @@ fn emitted_bytecode_is_what_each_frame_renders() {
             assert_eq!(emitted, rendered, "{example} frame {f}");
         }
     }
+}
+
+/// `--emit bytecode --cell X,Y,Z,W` prints the cell the cells' marcher runs at that point:
+/// camera rays (and, where the scene has interiors, rays inside objects from where those hit)
+/// marched through each frame's cells with a trace on; at the first point of every cell in
+/// which some ray ran a tape or met the exact pieces, the text the library call behind the
+/// flag emits for that point (from a frame and a tree of its own) is the text of the cell the
+/// marcher ran: the same cell (depth and corner), the same bounds, pieces and tapes. Cells
+/// outside the cube that a ray ran after proving some unbounded objects out of its way are
+/// not named by a point and only counted.
+#[test]
+fn emitted_cell_bytecode_is_what_the_marcher_runs() {
+    use hyperslice::At;
+    use hyperslice::compile::{Compiled, frame_time};
+    use hyperslice::render::frame::{Features, FrameScene};
+    use hyperslice::render::march::{Hit, Limits, Marcher, MarcherKind, Ray, Trace};
+    let many = (0..24)
+        .map(|i| {
+            let (x, z) = ((i % 6) as f64 - 2.5, (i / 6) as f64 * 1.5);
+            format!(
+                "object s{i} {{ shape = hyperbox([0.3, 0.3, 0.3, 0.3]) |> rotate(xz, {i}deg) \
+                 |> translate([{x}, 0.3, {z}, 0]) material = glass() }}\n"
+            )
+        })
+        .collect::<String>();
+    let many = format!(
+        "render {{ size = 32 x 24 }}\ncamera {{ from = [0, 1.5, -4, 0] to = [0, 0, 2, 0] }}\n\
+         sky = rgb(1)\nobject floor {{ shape = halfspace(normal: [0, 1, 0, 0], offset: 0) }}\n{many}"
+    );
+    let mut scenes: Vec<(String, Compilation)> = ["glass_box", "d4_packing", "room", "polytopes"]
+        .iter()
+        .map(|e| {
+            let path = format!("examples/{e}.4ds");
+            (path.clone(), Compilation::from_path(Path::new(&path)))
+        })
+        .collect();
+    scenes.push((
+        "many boxes".into(),
+        Compilation::from_source("many.4ds", &many),
+    ));
+    let (mut compared, mut deep, mut subsets) = (0, 0, 0);
+    for (name, c) in &scenes {
+        let scene = c
+            .scene
+            .as_ref()
+            .unwrap_or_else(|| panic!("{name}: {}", c.render_diagnostics(false)));
+        let compiled = Compiled::new(scene);
+        let features = Features::of(&compiled);
+        let frames = scene.render.frames;
+        for f in [0, frames - 1] {
+            let t = frame_time(f, frames);
+            let fs = FrameScene::for_marcher(scene, &compiled, features, t, MarcherKind::Cells);
+            let limits = Limits::of(&scene.render);
+            let (w, h) = (8, 6);
+            let rays: Vec<Ray> = (0..w * h)
+                .map(|k| Ray {
+                    o: fs.camera.position,
+                    d: fs
+                        .camera
+                        .direction((k % w) as f64 + 0.5, (k / w) as f64 + 0.5, w, h),
+                    tmax: f64::INFINITY,
+                    interior: false,
+                })
+                .collect();
+            let mut marcher = Marcher::default();
+            marcher.trace = Some(Trace::default());
+            let mut hits = vec![];
+            marcher.march(fs.field(), &rays, limits, &mut hits);
+            if features.interiors {
+                let inside: Vec<Ray> = (rays.iter().zip(&hits))
+                    .filter_map(|(r, h)| match *h {
+                        Hit::Surface { t, .. } => Some(Ray {
+                            o: r.o + r.d * (t + 4.0 * limits.epsilon),
+                            interior: true,
+                            ..*r
+                        }),
+                        _ => None,
+                    })
+                    .collect();
+                marcher.march(fs.field(), &inside, limits, &mut hits);
+            }
+            let trace = marcher.trace.expect("traced");
+            assert!(
+                !trace.visits.is_empty(),
+                "{name} frame {f}: no ray ran a cell"
+            );
+            let mut seen = vec![false; trace.cells.len()];
+            for v in &trace.visits {
+                if v.keep.is_some() {
+                    subsets += 1;
+                    continue;
+                }
+                if std::mem::replace(&mut seen[v.cell], true) {
+                    continue;
+                }
+                let emitted = c
+                    .emit_cell_bytecode(At::Frame(f), v.p.to_array())
+                    .expect("a finite point of a compiled scene");
+                assert_eq!(
+                    emitted, trace.cells[v.cell],
+                    "{name} frame {f}: at {:?} (cell {:?}) the marcher ran the second",
+                    v.p, v.id
+                );
+                let header = emitted.lines().next().expect("a header");
+                assert!(
+                    header.contains(&format!("depth {}", v.id.0)),
+                    "{name}: {header}"
+                );
+                compared += 1;
+                deep += (v.id.0 >= 2) as usize;
+            }
+        }
+    }
+    // The cells compared include deep ones, whose parents (and siblings) print otherwise.
+    assert!(compared >= 20 && deep >= 5, "{compared} cells, {deep} deep");
+    eprintln!("{compared} cells compared, {deep} at depth 2 or more, {subsets} subset visits");
 }
 
 /// Pruned tapes compute what the whole scene tape computes wherever they are used: at random

@@ -1,7 +1,10 @@
-//! `--emit bytecode`: each tape with its inputs, register count and instructions.
+//! `--emit bytecode`: each tape with its inputs, register count and instructions, and with
+//! `--cell`, the cell of the cells' marcher that holds a point.
 
 use super::Program;
+use super::cells::Cell;
 use super::tape::{Instr, Reg, Tape};
+use crate::ir::exact::{Form, Piece};
 use std::fmt;
 
 fn regs(v: &[Reg]) -> String {
@@ -96,6 +99,97 @@ impl fmt::Display for Tape {
 impl fmt::Display for Program {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         for t in self.tapes() {
+            writeln!(f, "{t}")?;
+        }
+        Ok(())
+    }
+}
+
+/// `1 piece`, `2 pieces`.
+fn count(n: usize, what: &str) -> String {
+    format!("{n} {what}{}", if n == 1 { "" } else { "s" })
+}
+
+/// `[a b c d]`, each in its shortest `f64` form.
+fn vec4(v: [f64; 4]) -> String {
+    let parts: Vec<String> = v.iter().map(|x| x.to_string()).collect();
+    format!("[{}]", parts.join(" "))
+}
+
+impl fmt::Display for Piece {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.form {
+            Form::Plane { g, c } => write!(f, "plane {} . p + {c}", vec4(g))?,
+            Form::Ball { rows, b, r, sign } => {
+                let rows: Vec<String> = rows.iter().map(|row| vec4(*row)).collect();
+                write!(
+                    f,
+                    "ball {sign} (|A p + {}| - {r}), A rows {}",
+                    vec4(b),
+                    rows.join(" ")
+                )?
+            }
+        }
+        write!(f, ", object {}", self.object)
+    }
+}
+
+/// `--emit bytecode --cell`: the cell a ray at a point marches through. A header names the
+/// cell (its depth, corner, edge, the origin of its tapes' local coordinates, the distance
+/// below which they are exact, and whether it is the region outside the cells' cube), then
+/// the lower bounds of its distances, the pieces rays meet exactly (the whole distance, or
+/// with the tape of the rest where the cell is partial), and its scene and interior tapes.
+impl fmt::Display for Cell {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let (depth, _) = self.id();
+        let place = if self.size.is_finite() {
+            "inside the cube"
+        } else {
+            "outside the cube"
+        };
+        writeln!(
+            f,
+            "cell {place}: depth {depth}, lo {}, size {}, origin {}, reach {}",
+            vec4(self.lo.to_array()),
+            self.size,
+            vec4(self.origin.to_array()),
+            self.reach
+        )?;
+        if !self.size.is_finite() {
+            writeln!(
+                f,
+                "  (every unbounded object: a ray that proves some out of its way runs the \
+                 tapes of the others)"
+            )?;
+        }
+        writeln!(
+            f,
+            "lower bounds: scene {}, interior {}",
+            self.lower[0], self.lower[1]
+        )?;
+        let mut rest = None;
+        if let Some(pieces) = &self.exact {
+            writeln!(f, "exact: {}", count(pieces.len(), "piece"))?;
+            for p in pieces {
+                writeln!(f, "  {p}")?;
+            }
+        } else if let Some(partial) = self.partial() {
+            writeln!(
+                f,
+                "partial: {} met exactly, the rest on tape rest (rays outside objects)",
+                count(partial.pieces.len(), "piece")
+            )?;
+            for p in &partial.pieces {
+                writeln!(f, "  {p}")?;
+            }
+            rest = Some(&partial.rest);
+        }
+        writeln!(f)?;
+        if let Some(t) = rest {
+            writeln!(f, "{t}")?;
+        }
+        writeln!(f, "{}", self.scene)?;
+        if let Some(t) = &self.interior {
             writeln!(f, "{t}")?;
         }
         Ok(())

@@ -26,6 +26,7 @@ use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
 use crate::vm::escape::{Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
+use std::collections::HashMap;
 
 /// Which marcher a render uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -196,6 +197,67 @@ pub struct Marcher {
     /// Instructions those evaluations ran (a tape's length per lane, an affine cell's
     /// pieces): the work a step costs, which pruning shortens.
     pub instructions: u64,
+    /// Where rays evaluated distances in the frame's cells, when set (`Some`, empty): for
+    /// tests. `None` (the default) records nothing.
+    pub trace: Option<Trace>,
+}
+
+/// The cells in which the marcher evaluated distances (`Marcher::trace`): what tests hold
+/// `--emit bytecode --cell` to. Set it to `Some(Trace::default())` before `march`; each
+/// `march` adds to it.
+#[derive(Default)]
+pub struct Trace {
+    /// Each ray's first point in each cell where it ran a tape or met the exact pieces, in the
+    /// order it got there (a ray back in a cell it left is recorded again).
+    pub visits: Vec<Visit>,
+    /// Each cell visited, as `--emit bytecode --cell` prints it (`Cell`'s `Display`), formatted
+    /// when first visited; `Visit::cell` indexes it.
+    pub cells: Vec<String>,
+    /// Where in `cells` each cell is, by address.
+    index: HashMap<usize, usize>,
+    /// The cell each ray of the current `march` was last recorded in, by address (0: none).
+    last: Vec<usize>,
+}
+
+/// One ray's arrival in a cell where it evaluated distances (`Trace`).
+#[derive(Clone, Copy, Debug)]
+pub struct Visit {
+    /// The ray's index in the `march` call's rays.
+    pub ray: usize,
+    /// The point, in world space.
+    pub p: DVec4,
+    /// The cell's `Cell::id`.
+    pub id: (u32, [u64; 4]),
+    /// Outside the cells' cube, when the ray had proved some unbounded objects out of its
+    /// way and ran the cell of the others (`Cells::outside`): which ones it kept. A point
+    /// alone does not name that cell.
+    pub keep: Option<u64>,
+    /// The cell's text, in `Trace::cells`.
+    pub cell: usize,
+}
+
+impl Trace {
+    /// Ray `ray` evaluates `cell` at `p`: record it if that cell is not the last it was
+    /// recorded in.
+    fn record(&mut self, ray: usize, p: DVec4, cell: &Cell, keep: Option<u64>) {
+        let here = address(cell);
+        if self.last[ray] == here {
+            return;
+        }
+        self.last[ray] = here;
+        let next = self.cells.len();
+        let index = *self.index.entry(here).or_insert(next);
+        if index == next {
+            self.cells.push(cell.to_string());
+        }
+        self.visits.push(Visit {
+            ray,
+            p,
+            id: cell.id(),
+            keep,
+            cell: index,
+        });
+    }
 }
 
 /// What one step found for one ray.
@@ -252,6 +314,10 @@ impl Marcher {
         let unbounded = escape.unbounded();
         for (st, r) in self.state.iter_mut().zip(rays) {
             st.enter = cells.enter(r.o, r.d);
+        }
+        if let Some(trace) = &mut self.trace {
+            trace.last.clear();
+            trace.last.resize(rays.len(), 0);
         }
         let mut at: Vec<Option<&Cell>> = vec![None; rays.len()];
         let mut paths = vec![cells.path(); rays.len()];
@@ -323,6 +389,10 @@ impl Marcher {
                     });
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
+                }
+                if let Some(trace) = &mut self.trace {
+                    let keep = (cells.is_outside(cell) && st.keep != unbounded).then_some(st.keep);
+                    trace.record(k, p, cell, keep);
                 }
                 if let (false, Some(pieces)) = (r.interior, &cell.exact) {
                     self.evaluations += 1;
