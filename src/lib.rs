@@ -323,16 +323,14 @@ impl Compilation {
     /// Cells are built lazily as rays reach them, but each is the same whatever built it
     /// first: this builds the frame's tree down to `point`, as a ray there would.
     pub fn emit_cell_bytecode(&self, at: At, point: [f64; 4]) -> Option<String> {
-        use render::frame::{Features, FrameScene};
+        use render::frame::Build;
         use render::march::MarcherKind;
         let scene = self.scene.as_ref()?;
         if !point.iter().all(|x| x.is_finite()) {
             return None;
         }
-        let compiled = compile::Compiled::new(scene);
-        let features = Features::of(&compiled);
         let t = self.time(at)?;
-        let fs = FrameScene::for_marcher(scene, &compiled, features, t, MarcherKind::Cells);
+        let fs = compile::Frames::new(scene).at(t, Build::marcher(MarcherKind::Cells));
         let cells = fs.cells.as_ref()?;
         Some(cells.find(glam::DVec4::from_array(point)).to_string())
     }

@@ -709,9 +709,9 @@ fn emitted_bytecode_is_what_each_frame_renders() {
 #[test]
 fn emitted_cell_bytecode_is_what_the_marcher_runs() {
     use hyperslice::At;
-    use hyperslice::compile::{Compiled, frame_time};
-    use hyperslice::render::frame::{Features, FrameScene};
-    use hyperslice::render::march::{Hit, Limits, Marcher, MarcherKind, Ray, Trace};
+    use hyperslice::compile::Frames;
+    use hyperslice::render::frame::{Build, FrameSource};
+    use hyperslice::render::march::{Hit, Marcher, MarcherKind, Ray, Trace};
     let many = (0..24)
         .map(|i| {
             let (x, z) = ((i % 6) as f64 - 2.5, (i / 6) as f64 * 1.5);
@@ -742,13 +742,11 @@ fn emitted_cell_bytecode_is_what_the_marcher_runs() {
             .scene
             .as_ref()
             .unwrap_or_else(|| panic!("{name}: {}", c.render_diagnostics(false)));
-        let compiled = Compiled::new(scene);
-        let features = Features::of(&compiled);
+        let source = Frames::new(scene);
         let frames = scene.render.frames;
         for f in [0, frames - 1] {
-            let t = frame_time(f, frames);
-            let fs = FrameScene::for_marcher(scene, &compiled, features, t, MarcherKind::Cells);
-            let limits = Limits::of(&scene.render);
+            let fs = source.frame(f, Build::marcher(MarcherKind::Cells));
+            let limits = source.shot.limits;
             let (w, h) = (8, 6);
             let rays: Vec<Ray> = (0..w * h)
                 .map(|k| Ray {
@@ -764,7 +762,7 @@ fn emitted_cell_bytecode_is_what_the_marcher_runs() {
             marcher.trace = Some(Trace::default());
             let mut hits = vec![];
             marcher.march(fs.field(), &rays, limits, &mut hits);
-            if features.interiors {
+            if fs.features.interiors {
                 let inside: Vec<Ray> = (rays.iter().zip(&hits))
                     .filter_map(|(r, h)| match *h {
                         Hit::Surface { t, .. } => Some(Ray {
