@@ -208,7 +208,13 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
             continue;
         };
         let p = r.o + r.d * t;
-        let eps = epsilon_at(p - camera.position, limits.epsilon);
+        // Off the surface as the integrator leaves it: by the epsilon of the cell where the
+        // hit's distance was evaluated (the cube's outside, far from every cell's origin, has
+        // a coarser one than a cell near the camera).
+        let eps = match &fs.cells {
+            Some(cells) => cells.find(p).epsilon(p, limits.epsilon, false),
+            None => epsilon_at(p, limits.epsilon),
+        };
         let n = truth.normal(p, eps);
         if n == DVec4::ZERO {
             continue;

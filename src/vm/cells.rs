@@ -83,8 +83,10 @@ pub struct Cell {
     /// bound of it, itself at least this (`REACH`).
     pub reach: f64,
     /// How far `f32` may round the interior tape's distance in the cell (`ir::precise::
-    /// rounding`; 0 without one, infinite where unknown).
+    /// rounding`; 0 without one, infinite where unknown), and the scene tape's (0 where rays
+    /// outside objects never read it: no surface in the cell, or exact pieces).
     rounding: f64,
+    scene_rounding: f64,
     /// Where the distance is not, but some objects' are: rays outside objects meet those
     /// exactly and step on the others alone (`partial`, built when a ray first needs it:
     /// rays march only in cells without children).
@@ -435,6 +437,11 @@ impl Cell {
         };
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
         let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
+        let scene_rounding = if lower[0] > 0.0 || exact.is_some() {
+            0.0
+        } else {
+            crate::ir::precise::rounding(tapes, roots[0], region)
+        };
         let len = scene.code.len() + interior.as_ref().map_or(0, |t| t.code.len());
         // A cell with no surface in it is crossed in one jump and never split. Others split
         // while that still shortens the tapes (where two surfaces meet, no subdivision
@@ -460,6 +467,7 @@ impl Cell {
             objects: OnceLock::new(),
             reach,
             rounding,
+            scene_rounding,
             lower,
             exact,
             partial: OnceLock::new(),
@@ -522,6 +530,13 @@ impl Cell {
         } else {
             epsilon_at(p - self.origin, epsilon)
         }
+    }
+
+    /// How far the scene tape's distance may be from the true one where rays outside
+    /// objects read it in the cell (a bound of its `f32` rounding; 0 where they never do: no
+    /// surface in the cell, or exact pieces). A step may end inside a surface by that much.
+    pub fn scene_slack(&self) -> f64 {
+        self.scene_rounding
     }
 
     /// How far the interior tape's distance may be from the true one in the cell (a bound of
