@@ -3,6 +3,8 @@
 //! whole. Each message reads as a sentence after `error: `, which is how the command line
 //! prints it.
 
+pub use crate::sweep::SweepError;
+
 use crate::output::OutputError;
 use std::path::PathBuf;
 
@@ -129,5 +131,5 @@ pub enum Error {
 
     /// The speed/accuracy sweep failed (its reference, its results or its plot).
     #[error(transparent)]
-    Sweep(#[from] crate::sweep::SweepError),
+    Sweep(#[from] SweepError),
 }

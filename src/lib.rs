@@ -201,10 +201,12 @@ pub struct Compilation {
     /// Errors and warnings of every stage, in the order the stages found them.
     pub diagnostics: Vec<Diagnostic>,
     /// The root file's syntax tree, kept even when checking failed (for `--emit ast`).
+    #[doc(hidden)]
     pub ast: syntax::ast::Ast,
     /// The typed scene; `None` when parsing or checking failed.
     pub scene: Option<scene::Scene>,
     /// Every name use resolved to its definition, with its type: for editors.
+    #[doc(hidden)]
     pub resolved: Vec<check::Resolved>,
 }
 
@@ -350,6 +352,7 @@ impl Compilation {
     }
 
     /// The tapes of frame `at`, if the scene compiled.
+    #[doc(hidden)]
     pub fn program(&self, at: At) -> Option<vm::Program> {
         let scene = self.scene.as_ref()?;
         let t = self.time(at)?;

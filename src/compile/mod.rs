@@ -23,6 +23,7 @@ use crate::vm::{ObjectTapes, Program, Tape};
 #[derive(Clone, Debug)]
 pub struct Compiled {
     /// The plain lowered IR, `t` free: the reference every optimised tape is tested against.
+    #[doc(hidden)]
     pub ir: SceneIr,
     /// Each object's bounding sphere (centre, radius) where the scene gives one for every
     /// frame; `None` for unbounded shapes and ones that move.
@@ -42,6 +43,7 @@ pub struct LightPlacement {
 
 /// Everything compiled for one frame.
 #[derive(Clone, Debug)]
+#[doc(hidden)]
 pub struct Frame {
     /// The animation time folded into this frame's tapes: 0 on the first frame, 1 on the last.
     pub t: f64,
@@ -64,11 +66,13 @@ impl Compiled {
     }
 
     /// The tapes with `t` folded in (or left free with `None`).
+    #[doc(hidden)]
     pub fn program(&self, t: Option<f64>) -> Program {
         program(&self.ir, t)
     }
 
     /// Everything frame-specific at animation time `t`.
+    #[doc(hidden)]
     pub fn frame(&self, t: f64) -> Frame {
         let mut roots: Vec<Id> = self.ir.look.iter().map(|(_, a)| *a).collect();
         roots.extend(self.ir.lights.iter().flat_map(|l| l.ids()));
@@ -128,6 +132,7 @@ pub fn frame_time(f: u32, frames: u32) -> f64 {
 }
 
 /// Optimise `raw` (with `t` free, or fixed to one frame's value) and compile its tapes.
+#[doc(hidden)]
 pub fn program(raw: &SceneIr, t: Option<f64>) -> Program {
     let ir = opt::optimise(raw, t);
     let g = &ir.graph;

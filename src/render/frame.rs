@@ -14,6 +14,7 @@ use crate::vm::escape::Escape;
 use glam::{DVec3, DVec4};
 
 /// One object's tapes for one frame.
+#[doc(hidden)]
 pub struct FrameObject {
     /// The object's own signed distance: its normal, and whether a point is inside it.
     pub distance: Tape,
@@ -38,11 +39,14 @@ pub struct FrameScene {
     /// The camera, moved and turned to this frame.
     pub camera: FrameCamera,
     /// Outputs: signed distance to the nearest visible object, and its index.
+    #[doc(hidden)]
     pub scene: Tape,
     /// Outputs: unsigned distance to the nearest surface (`min |d_i|`), and its object, for
     /// rays inside objects; `None` when no object can be entered.
+    #[doc(hidden)]
     pub interior: Option<Tape>,
     /// Every object, indexed as the scene lists them.
+    #[doc(hidden)]
     pub objects: Vec<FrameObject>,
     /// The medium filling the world outside objects (vacuum unless the scene sets `air` or a fog).
     pub medium: Medium,
@@ -54,12 +58,15 @@ pub struct FrameScene {
     pub lights: Lights,
     /// The scene and interior tapes pruned to regions of space: what rays march through
     /// (none for the plain marcher, which marches the whole tapes).
+    #[doc(hidden)]
     pub cells: Option<Cells>,
     /// What proves that a ray has left every object.
+    #[doc(hidden)]
     pub escape: Escape,
     /// Whether rays over-relax their steps (every marcher but the plain one).
     pub relax: bool,
     /// What the probe that chose the marcher found (`MarcherKind::Auto` only).
+    #[doc(hidden)]
     pub probe: Option<Probe>,
 }
 
@@ -140,6 +147,7 @@ impl FrameScene {
 
 impl FrameScene {
     /// What the frame's rays march through.
+    #[doc(hidden)]
     pub fn field(&self) -> Field<'_> {
         Field {
             cells: self.cells.as_ref(),

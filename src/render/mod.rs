@@ -11,11 +11,19 @@ pub mod bsdf;
 pub mod camera;
 pub mod driver;
 pub mod frame;
+// The integrator, the marchers and the probe run the frame's bytecode (`crate::vm`): public
+// for tests and benchmarks, not part of the API, which sees their results and choices only.
+#[doc(hidden)]
 pub mod integrator;
 pub mod lights;
+#[doc(hidden)]
 pub mod march;
 pub mod material;
 pub mod phase;
+#[doc(hidden)]
 pub mod probe;
 pub mod sampler;
 pub mod sampling;
+
+pub use integrator::Stats;
+pub use march::{Limits, MarcherKind};

@@ -11,6 +11,7 @@ pub mod ranges;
 pub mod shape;
 pub mod types;
 
+pub use crate::math::Plane;
 pub use field::{Const, FieldBin, FieldId, FieldOp, Fields, Input, MathFn, Param};
 pub use lattice::Lattice;
 pub use material::{Material, MaterialKind, Slot};
