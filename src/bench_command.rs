@@ -148,10 +148,13 @@ fn command_line() -> String {
 }
 
 impl BenchArgs {
-    /// Worker threads: the flag's, else the scene's; `None` for every core.
+    /// Worker threads: the flag's (0: every core), else the scene's (`None`).
     fn threads(&self, scene: &Scene) -> Option<usize> {
-        let threads = self.threads.unwrap_or(scene.render.threads);
-        (threads > 0).then_some(threads as usize)
+        match self.threads {
+            Some(0) => Some(hyperslice::render::driver::every_core()),
+            Some(n) => Some(n as usize),
+            None => scene.render.threads(),
+        }
     }
 }
 
@@ -169,9 +172,9 @@ pub fn run(args: BenchArgs, color: bool) -> ExitCode {
 fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
     let runs = args.repeats.unwrap_or(3);
     let threads = match args.threads {
-        Some(0) => None,
-        Some(n) => Some(n as usize),
-        None => Some(2),
+        Some(0) => hyperslice::render::driver::every_core(),
+        Some(n) => n as usize,
+        None => 2,
     };
     if !Path::new("examples").is_dir() {
         return Err(hyperslice::Error::Usage(
@@ -187,7 +190,7 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
     println!(
         "- {runs} paired render(s) of each scene, alternating, {} thread(s), no denoiser; \
          times are medians, ratio = default / plain\n",
-        threads.map_or("every".to_string(), |t| t.to_string())
+        threads
     );
     println!(
         "| scene | default (s) | plain (s) | ratio | out of steps (default) | out of steps (plain) | choice (first frame) |"
@@ -196,7 +199,7 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
     let mut rows = vec![];
     for entry in &entries {
         let scene = entry.scene(Path::new("."))?;
-        let m = corpus::measure(&entry.name, &scene, runs, threads)?;
+        let m = corpus::measure(&entry.name, &scene, runs, Some(threads))?;
         println!(
             "| {} | {} | {} | {:.2} | {} | {} | {} |",
             m.name,

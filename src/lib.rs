@@ -147,10 +147,10 @@ pub struct Rendered {
 /// ```
 pub fn render(scene: &scene::Scene, options: &RenderOptions, monitor: Monitor) -> Result<Rendered> {
     let start = Instant::now();
-    let compiled = compile::Frames::new(scene);
-    let (mut frames, stats) = render::driver::render_films(&compiled, options, monitor)?;
+    let source = compile::Frames::new(scene);
+    let (mut frames, stats) = render::driver::render_films(&source, options, monitor)?;
     let denoise_start = Instant::now();
-    let threads = options.threads.or(compiled.shot.threads);
+    let threads = options.threads.or(source.shot.threads);
     farm::assemble::denoise_frames(&mut frames, scene.render.denoise, threads)?;
     Ok(Rendered {
         frames,

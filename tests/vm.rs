@@ -799,7 +799,7 @@ fn emitted_cell_bytecode_is_what_the_marcher_runs() {
                 );
                 let header = emitted.lines().next().expect("a header");
                 assert!(
-                    header.contains(&format!("depth {}", v.id.0)),
+                    header.contains(&format!("depth {},", v.id.0)),
                     "{name}: {header}"
                 );
                 compared += 1;

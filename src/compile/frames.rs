@@ -51,7 +51,7 @@ impl Frames {
                     epsilon: r.epsilon,
                     max_steps: r.max_steps,
                 },
-                threads: (r.threads > 0).then_some(r.threads as usize),
+                threads: r.threads(),
             },
             from_to: (
                 DVec4::from_array(scene.camera.from),

@@ -235,9 +235,9 @@ pub struct Finished {
 
 impl Job {
     /// A job rendering every frame of `scene` into `output`, resuming from (and keeping its
-    /// films in) a hidden directory beside it, on the threads the scene's settings ask for.
+    /// films in) a hidden directory beside it, on the threads the scene's settings ask for
+    /// (`options.threads` is `None`: the scene's).
     pub fn new(scene: Scene, scene_file: impl Into<PathBuf>, output: impl Into<PathBuf>) -> Job {
-        let threads = scene.render.threads;
         Job {
             scene,
             scene_file: scene_file.into(),
@@ -247,10 +247,7 @@ impl Job {
             shard: (0, 1),
             resume: Resume::Resume,
             remove_stale: false,
-            options: Options {
-                threads: (threads > 0).then_some(threads as usize),
-                ..Options::default()
-            },
+            options: Options::default(),
         }
     }
 
@@ -390,7 +387,8 @@ impl Job {
             ..self.options
         };
         let units = part.units(r.spp);
-        refuse_what_memory_cannot_hold(r, options.threads, &units, n == 1, frames.len())?;
+        let threads = options.threads.or(r.threads());
+        refuse_what_memory_cannot_hold(r, threads, &units, n == 1, frames.len())?;
         let dir = self.film_dir();
         let hidden = self.films.is_none();
         let name = self.scene_file.file_name().unwrap_or_default();
@@ -442,7 +440,7 @@ impl Job {
             dir: &dir,
         });
         let started = Instant::now();
-        let compiled = compile::Frames::new(&self.scene);
+        let source = compile::Frames::new(&self.scene);
         let rendered = {
             let shared: &dyn Report = report;
             let progress = |n: u64| shared.samples(n);
@@ -450,7 +448,7 @@ impl Job {
                 progress: &progress,
                 cancel,
             };
-            driver::render_units(&compiled, &options, &todo, &films, monitor)
+            driver::render_units(&source, &options, &todo, &films, monitor)
         };
         report.rendered();
         let render_secs = started.elapsed().as_secs_f64();
@@ -642,8 +640,7 @@ fn refuse_what_memory_cannot_hold(
     finishing: bool,
     frames: usize,
 ) -> Result<()> {
-    let threads =
-        threads.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()));
+    let threads = threads.unwrap_or_else(driver::every_core);
     let in_flight = threads.min(driver::FRAME_GROUP).min(units.len()).max(1);
     let finish = finishing.then_some((r.denoise, frames));
     let needed = memory::needed(r.width, r.height, in_flight, finish);

@@ -296,6 +296,11 @@ pub fn render_films(
     Ok((films, stats))
 }
 
+/// One worker thread per core (what a scene's `threads = 0` asks for).
+pub fn every_core() -> usize {
+    std::thread::available_parallelism().map_or(1, |n| n.get())
+}
+
 /// The pool of worker threads: `threads`, or one per core.
 pub(crate) fn pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();

@@ -92,13 +92,6 @@ pub struct Shot {
     pub threads: Option<usize>,
 }
 
-impl Shot {
-    /// Samples the whole render takes at most, for progress bars.
-    pub fn total_samples(&self) -> u64 {
-        self.width as u64 * self.height as u64 * self.spp as u64 * self.frames as u64
-    }
-}
-
 /// How a frame is built: the render's choices that are not the scene's.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Build {

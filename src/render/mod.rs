@@ -3,9 +3,10 @@
 //! Light-transport building blocks, each a small self-contained module checked numerically in
 //! `tests/physics_samplers.rs`: `sampling` (frames, uniform and cosine samplers, Fresnel),
 //! `bsdf` (surface scattering) and `phase` (scattering in media). On top of them: `frame`
-//! (one frame's tapes from `crate::compile`, its camera, media and lights), `march` (sphere tracing on packets), `material` and `integrator`
-//! (the path tracer, accumulating into `crate::film`'s per-pixel buffers); `driver` runs them
-//! over tiles and frames.
+//! (what the compile stage hands over: one frame's tapes, cells, camera, media and lights),
+//! `march` (sphere tracing on packets), `material` and `integrator` (the path tracer,
+//! accumulating into `crate::film`'s per-pixel buffers); `driver` runs them over tiles and
+//! frames.
 
 pub mod bsdf;
 pub mod camera;

@@ -72,6 +72,13 @@ pub struct RenderSettings {
     pub threads: u32,
 }
 
+impl RenderSettings {
+    /// The worker threads the scene asks for; `None` for every core (`threads = 0`).
+    pub fn threads(&self) -> Option<usize> {
+        (self.threads > 0).then_some(self.threads as usize)
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         RenderSettings {

@@ -130,7 +130,7 @@ pub struct SweepOptions {
     pub size: Option<(u32, u32)>,
     /// Frame count instead of the scene's.
     pub frames: Option<u32>,
-    /// Worker threads; `None` uses every core.
+    /// Worker threads; `None` uses the scene's (every core unless it sets `threads`).
     pub threads: Option<usize>,
     /// Renders of each configuration; its time is their median.
     pub repeats: u32,

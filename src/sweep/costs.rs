@@ -74,7 +74,7 @@ pub struct CostOptions {
     pub object_list: Vec<u32>,
     /// Renders per point (the median time is kept).
     pub repeats: u32,
-    /// Threads of every curve but the thread curve (`None`: every core).
+    /// Threads of every curve but the thread curve (`None`: the scene's).
     pub threads: Option<usize>,
 }
 

@@ -83,9 +83,11 @@ pub struct Cell {
     /// bound of it, itself at least this (`REACH`).
     pub reach: f64,
     /// How far `f32` may round the interior tape's distance in the cell (`ir::precise::
-    /// rounding`; 0 without one, infinite where unknown), and the scene tape's (0 where rays
-    /// outside objects never read it: no surface in the cell, or exact pieces).
+    /// rounding`; 0 without one, infinite where unknown).
     rounding: f64,
+    /// The same bound for the scene tape: 0 where rays outside objects never read it near a
+    /// surface (no surface in the cell, or exact pieces). Partial cells bound the whole scene
+    /// tape, not their `rest`, which is no looser.
     scene_rounding: f64,
     /// Where the distance is not, but some objects' are: rays outside objects meet those
     /// exactly and step on the others alone (`partial`, built when a ray first needs it:

@@ -204,7 +204,8 @@ pub struct Marcher {
 
 /// The cells in which the marcher evaluated distances (`Marcher::trace`): what tests hold
 /// `--emit bytecode --cell` to. Set it to `Some(Trace::default())` before `march`; each
-/// `march` adds to it.
+/// `march` adds to it. One frame per trace: cells are known by address, which a later frame's
+/// cells may reuse.
 #[derive(Default)]
 pub struct Trace {
     /// Each ray's first point in each cell where it ran a tape or met the exact pieces, in the
@@ -514,8 +515,7 @@ impl Marcher {
                                 if !r.interior
                                     && (cells.is_outside(cell) || cell.scene_slack() > st.tol) =>
                             {
-                                let t = settle(escape, r, t, st.tol, &mut self.proofs);
-                                Step::Hit { t, object }
+                                settle(escape, r, (t, object), st.tol, &mut self.proofs)
                             }
                             step => step,
                         };
@@ -664,46 +664,67 @@ fn careful(
     crawl(escape, r, st, d, proofs).unwrap_or(Step::Advance(d))
 }
 
-/// Where a ray outside objects that its tape ended at `t` meets the surface, where the tape's
-/// `f32` rounding may exceed the epsilon (a cell's bound of it, `Cell::scene_slack`, says
-/// so, or nothing bounds it: outside the cells' cube, in coordinates local to its centre; a
-/// hypersphere of radius 7e3 rounds by 5e-4). A step may have ended inside by several
-/// epsilons, so that a path leaving the hit by its epsilon would leave from inside. Where the distance in `f64` shows the point inside by more than
-/// `tol`, the ray backs out to the surface: first by that distance (a ball of that radius
-/// lies inside, so the step leaves no object), then by the secant of the two distances, which
-/// a ray grazing the surface needs; a secant step that overshoots by more than `tol` is
-/// halved back towards the last point inside.
-fn settle(escape: &Escape, r: &Ray, t: f64, tol: f64, proofs: &mut Proofs) -> f64 {
-    let mut at = |t: f64| escape.distance(r.o + r.d * t, false, proofs).0;
-    let (mut inside, mut d) = (t, at(t));
+/// Where a ray outside objects that its tape ended at `t` (on `object`) meets the surface,
+/// where the tape's `f32` rounding may exceed the epsilon: a cell's bound of it
+/// (`Cell::scene_slack`) says so, or nothing bounds it (outside the cells' cube, in
+/// coordinates local to its centre; a hypersphere of radius 7e3 rounds by 5e-4). A step may
+/// have ended inside by several epsilons, so that a path leaving the hit by its epsilon would
+/// leave from inside. Where the distance in `f64` shows the point inside by more than `tol`,
+/// the ray backs out to the surface: first by that distance (a ball of that radius lies
+/// inside, so the step leaves no object), then by the secant of the last two distances, which
+/// a ray grazing the surface needs, kept between the last points found inside and outside
+/// (halving between them where the secant leaves them). The object is the nearest one where
+/// the ray settles.
+fn settle(
+    escape: &Escape,
+    r: &Ray,
+    (t, object): (f64, usize),
+    tol: f64,
+    proofs: &mut Proofs,
+) -> Step {
+    let mut at = |t: f64| escape.distance(r.o + r.d * t, false, proofs);
+    let hit = |t: f64, near: f64| Step::Hit {
+        t,
+        object: if near >= 0.0 { near as usize } else { object },
+    };
+    let (d, near) = at(t);
     if d.is_nan() || d >= -tol {
-        return t;
+        return Step::Hit { t, object };
     }
+    // The last points inside and outside (beyond `tol`), and the distance at the former.
+    let (mut inside, mut d_inside, mut outside) = (t, d, f64::NEG_INFINITY);
+    let mut last = near;
     let mut next = (t + d).max(0.0);
     for _ in 0..SETTLE {
-        let dn = at(next);
+        let (dn, near) = at(next);
         if dn.is_nan() {
             break;
         }
         if dn.abs() <= tol {
-            return next;
+            return hit(next, near);
         }
-        if dn > tol {
-            // Out past the surface: halve back towards the last point inside.
-            next = 0.5 * (next + inside);
-            continue;
-        }
-        // Still inside: the secant through the last two points inside aims at the surface.
-        let slope = (dn - d) / (next - inside);
-        let aim = if slope < 0.0 {
-            next - dn / slope
+        let aim = if dn > tol {
+            outside = next;
+            // The secant through the points either side of the surface.
+            next - dn * (inside - next) / (d_inside - dn)
         } else {
-            next + dn
+            // The secant through the last two points inside, back towards the surface.
+            let slope = (dn - d_inside) / (next - inside);
+            (inside, d_inside, last) = (next, dn, near);
+            if slope < 0.0 {
+                next - dn / slope
+            } else {
+                next + dn
+            }
         };
-        (inside, d) = (next, dn);
-        next = aim.clamp(0.0, inside);
+        let lo = outside.max(0.0);
+        next = if aim > lo && aim < inside {
+            aim
+        } else {
+            0.5 * (lo + inside)
+        };
     }
-    inside.min(t)
+    hit(inside, last)
 }
 
 /// Most distances `settle` evaluates after the first.
