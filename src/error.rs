@@ -42,6 +42,10 @@ pub enum Error {
     #[error("{0}")]
     Usage(String),
 
+    /// A long render refused to start (nothing was written).
+    #[error(transparent)]
+    Refused(#[from] crate::farm::refusal::Refusal),
+
     /// A render's hidden film directory could not be removed after its output was written.
     #[error("cannot remove the films in `{}` after writing the output: {source}", .path.display())]
     RemoveFilms {
@@ -68,7 +72,7 @@ pub enum Error {
 
     /// A film was rendered from another scene or other settings.
     #[error(
-        "film `{}` was rendered from another scene or other settings: it has `{theirs}` where this render has `{ours}`\n  hint: render into another --films directory, or delete this one to start afresh",
+        "film `{}` was rendered from another scene or other settings: it has `{theirs}` where this render has `{ours}`\n  hint: render into another film directory, or delete this one to start afresh",
         .path.display()
     )]
     FilmMismatch {

@@ -137,6 +137,9 @@ fn finish(result: hyperslice::error::Result<()>) -> ExitCode {
         Err(hyperslice::Error::Cancelled) => ExitCode::from(130),
         Err(e) => {
             eprintln!("error: {e}");
+            if let Some(hint) = render_command::flags_for(&e) {
+                eprintln!("  hint: {hint}");
+            }
             ExitCode::FAILURE
         }
     }

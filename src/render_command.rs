@@ -334,6 +334,32 @@ pub fn run(args: RenderArgs, color: bool) -> ExitCode {
     }
 }
 
+/// The flags that change what a long render refused (the library names the settings).
+pub fn flags_for(e: &hyperslice::Error) -> Option<&'static str> {
+    use hyperslice::farm::refusal::Refusal;
+    let hyperslice::Error::Refused(r) = e else {
+        return matches!(e, hyperslice::Error::FilmMismatch { .. })
+            .then_some("render into another --films directory");
+    };
+    Some(match r {
+        Refusal::FrameOutside { .. } | Refusal::FramesOutside { .. } => {
+            "--frames N renders more frames"
+        }
+        Refusal::Shard { .. } => "--shard K/N takes 0 <= K < N",
+        Refusal::ProgressiveShards { .. } => {
+            "--time-budget and --noise-threshold split by frames only; drop them for a fixed --spp"
+        }
+        Refusal::ForeignFilms { hidden: true, .. } => "pass --restart to discard them",
+        Refusal::ForeignFilms { hidden: false, .. } => {
+            "pass --restart to discard them (or render into another --films directory)"
+        }
+        Refusal::Memory {
+            many_frames: true, ..
+        } => "--size makes the image smaller; --threads 1 or --frame-range holds fewer frames",
+        Refusal::Memory { .. } => "--size makes the image smaller",
+    })
+}
+
 /// Set by SIGINT or SIGTERM; a second signal exits at once.
 fn interrupted() -> &'static AtomicBool {
     static FLAG: AtomicBool = AtomicBool::new(false);

@@ -86,25 +86,49 @@ fn rendered_frames_are_written_through_the_facade() {
 #[test]
 fn a_job_refuses_frames_and_shards_outside_the_render() {
     use hyperslice::farm::job::{Frames, Job};
+    use hyperslice::farm::refusal::Refusal;
     let scene = Compilation::from_source("s.4ds", SCENE)
         .into_scene()
         .expect("compiles");
     let dir = tempfile::tempdir().expect("temp dir");
     let job = Job::new(scene, "s.4ds", dir.path().join("out.png"));
+    // Refusals are structured, and say what to change in the library's terms: the scene's
+    // settings, not the command line's flags.
     let refused = |job: &Job| match job.run(&mut (), None) {
-        Err(Error::Usage(m)) => m,
+        Err(Error::Refused(r)) => {
+            let m = r.to_string();
+            assert!(!m.contains("--"), "a library refusal names a flag: {m}");
+            (r, m)
+        }
         other => panic!("not refused: {other:?}"),
     };
     let mut late = job.clone();
     late.frames = Frames::Range("2..9".parse().expect("a range"));
+    let (r, m) = refused(&late);
     assert!(
-        refused(&late).starts_with("frames 2..9 are not all in the animation: it has 4 frames")
+        matches!(r, Refusal::FramesOutside { frames: 4, .. }),
+        "{r:?}"
     );
+    assert!(m.starts_with("frames 2..9 are not all in the animation: it has 4 frames"));
+    assert!(m.contains("set the scene's `frames`"), "{m}");
     let mut beyond = job.clone();
     beyond.frames = Frames::One(4);
-    assert!(refused(&beyond).starts_with("frame 4 is not in the animation"));
+    let (r, m) = refused(&beyond);
+    assert!(
+        matches!(
+            r,
+            Refusal::FrameOutside {
+                frame: 4,
+                frames: 4
+            }
+        ),
+        "{r:?}"
+    );
+    assert!(m.starts_with("frame 4 is not in the animation"));
     let mut shard = job;
     shard.shard = (2, 2);
-    assert!(refused(&shard).contains("shard 2/2 is not a part of a render"));
+    let (r, m) = refused(&shard);
+    assert!(matches!(r, Refusal::Shard { k: 2, n: 2 }), "{r:?}");
+    assert!(m.contains("shard 2/2 is not a part of a render"));
     assert_eq!(std::fs::read_dir(dir.path()).expect("listed").count(), 0);
 }

@@ -11,6 +11,7 @@ use super::assemble::{self, Films, Finish};
 use super::films::{FilmDir, Survey};
 use super::memory;
 use super::plan::Part;
+use super::refusal::Refusal;
 use crate::compile;
 use crate::error::{Error, Result};
 use crate::output::{self, Written};
@@ -275,19 +276,13 @@ impl Job {
             Frames::Range(range) => range.text.clone(),
             _ => frame_span(&frames),
         };
-        let has = format!("{all} frame{}", if all == 1 { "" } else { "s" });
-        if let Frames::One(f) = self.frames
-            && f >= all
+        if let Frames::One(frame) = self.frames
+            && frame >= all
         {
-            return Err(Error::Usage(format!(
-                "frame {f} is not in the animation: it has {has} (0..{all}); set `frames` in the scene or --frames to render more"
-            )));
+            return Err(Refusal::FrameOutside { frame, frames: all }.into());
         }
         if frames.end > all || frames.is_empty() {
-            return Err(Error::Usage(format!(
-                "frames {asked} are not all in the animation: it has {has} ({}); set `frames` in the scene or --frames to render more",
-                frame_span(&(0..all))
-            )));
+            return Err(Refusal::FramesOutside { asked, frames: all }.into());
         }
         Ok((frames, asked))
     }
@@ -364,18 +359,14 @@ impl Job {
         let (frames, asked) = self.frames()?;
         let (k, n) = self.shard;
         if n == 0 || k >= n {
-            return Err(Error::Usage(format!(
-                "shard {k}/{n} is not a part of a render; give K/N with 0 <= K < N"
-            )));
+            return Err(Refusal::Shard { k, n }.into());
         }
         let part = Part::new(frames.clone(), self.shard);
         let progressive =
             self.options.time_budget.is_some() || self.options.noise_threshold.is_some();
         if n > 1 && !part.splits_frames() && progressive {
-            return Err(Error::Usage(format!(
-                "{} frames cannot be split {n} ways by samples with --time-budget or --noise-threshold, which decide per pixel how many samples to take; give at least {n} frames or a fixed spp",
-                frames.len(),
-            )));
+            let frames = frames.len();
+            return Err(Refusal::ProgressiveShards { frames, n }.into());
         }
         // The budget is for the whole run: what finishing the frames will take is kept back.
         let finishing = (self.options.time_budget.is_some() && n == 1)
@@ -407,17 +398,15 @@ impl Job {
             }
             // Films of other settings: the work of an earlier run, kept unless asked.
             Err(Error::FilmMismatch { ours, theirs, path }) => {
-                return Err(Error::Usage(format!(
-                    "{} holds the films of another scene or other settings: they have `{theirs}` where this render has `{ours}` (in {}); \
-                     run with the same settings to resume or reuse them, or pass --restart to discard them{}",
-                    dir.display(),
-                    path.file_name().unwrap_or_default().to_string_lossy(),
-                    if hidden {
-                        " (or move the folder aside to keep it)"
-                    } else {
-                        " (or render into another --films directory)"
-                    }
-                )));
+                let file = path.file_name().unwrap_or_default().to_string_lossy();
+                return Err(Refusal::ForeignFilms {
+                    dir,
+                    file: file.into_owned(),
+                    ours,
+                    theirs,
+                    hidden,
+                }
+                .into());
             }
             other => other?,
         };
@@ -651,24 +640,16 @@ fn refuse_what_memory_cannot_hold(
     if needed <= available {
         return Ok(());
     }
-    let per_pixel = needed as f64 / (r.width as f64 * r.height as f64) / 1000.0;
-    let more = if in_flight > 1 || frames > 1 {
-        ", or hold fewer frames at once with --threads 1 or --frame-range"
-    } else {
-        ""
-    };
-    Err(Error::Usage(format!(
-        "a {} x {} render needs about {} of memory ({per_pixel:.2} KB a pixel), but {} {}; make the image smaller with --size{more}",
-        r.width,
-        r.height,
-        memory::human(needed),
-        memory::human(available),
-        if known {
-            "is available"
-        } else {
-            "is the most assumed when the memory available is unknown"
-        },
-    )))
+    Err(Refusal::Memory {
+        width: r.width,
+        height: r.height,
+        needed: memory::human(needed),
+        available: memory::human(available),
+        known,
+        per_pixel: needed as f64 / (r.width as f64 * r.height as f64) / 1000.0,
+        many_frames: in_flight > 1 || frames > 1,
+    }
+    .into())
 }
 
 /// Remove the films of `units` (the whole folder when it is the hidden one).

@@ -15,6 +15,7 @@ pub mod films;
 pub mod job;
 pub mod memory;
 pub mod plan;
+pub mod refusal;
 
 use crate::render::driver::Options;
 use crate::render::integrator::Stats;
