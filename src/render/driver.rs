@@ -328,11 +328,7 @@ pub fn render_units(
         general: options.general,
     };
     let settings = Settings {
-        width: r.width,
-        height: r.height,
-        bounces: r.bounces,
-        limits: r.limits,
-        seed: r.seed,
+        shot: *r,
         roulette_from: options.roulette_from,
         light_sampling: options.light_sampling,
         sampler: options.sampler,

@@ -24,9 +24,9 @@
 //! thread count; with it off no extra numbers are drawn and the estimator is plain BSDF sampling.
 
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
-use super::frame::{FrameObject, FrameScene};
+use super::frame::{FrameObject, FrameScene, Shot};
 use super::lights::Lights;
-use super::march::{Hit, Limits, Marcher, Ray};
+use super::march::{Hit, Marcher, Ray};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
@@ -39,17 +39,10 @@ use glam::{DVec3, DVec4};
 /// The settings of the light transport.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {
-    /// Image width in pixels.
-    pub width: u32,
-    /// Image height in pixels.
-    pub height: u32,
-    /// Most scattering events of one path.
-    pub bounces: u32,
-    /// Marching epsilon and step limit.
-    pub limits: Limits,
-    /// Seeds every sample's random stream (with the frame, pixel and sample index), so a render is
-    /// the same on any number of threads.
-    pub seed: u64,
+    /// The scene's: image size, bounces, marching limits and the seed of every sample's random
+    /// stream (with the frame, pixel and sample index, so a render is the same on any number
+    /// of threads).
+    pub shot: Shot,
     /// Russian roulette from this many bounces on (`u32::MAX`: never).
     pub roulette_from: u32,
     /// Next-event estimation towards spherical lights, combined with BSDF sampling by MIS.
@@ -260,11 +253,16 @@ pub fn render_tile(
         scratch.paths.clear();
         for k in (0..pixels as u32).filter(|&k| active[k as usize]) {
             let (px, py) = (tile.x + k % tile.width, tile.y + k / tile.width);
-            let global = py as u64 * s.width as u64 + px as u64;
+            let global = py as u64 * s.shot.width as u64 + px as u64;
             for sample in first..last {
-                let mut sampler = Sampler::new(s.sampler, s.seed, frame, global, sample);
+                let mut sampler = Sampler::new(s.sampler, s.shot.seed, frame, global, sample);
                 let (jx, jy) = (sampler.get(), sampler.get());
-                let d = (fs.camera).direction(px as f64 + jx, py as f64 + jy, s.width, s.height);
+                let d = (fs.camera).direction(
+                    px as f64 + jx,
+                    py as f64 + jy,
+                    s.shot.width,
+                    s.shot.height,
+                );
                 scratch.paths.push(Path {
                     pixel: k,
                     sampler,
@@ -369,7 +367,7 @@ fn trace(
             });
         }
         let before = (marcher.evaluations, marcher.instructions);
-        marcher.march(fs.field(), rays, s.limits, hits);
+        marcher.march(fs.field(), rays, s.shot.limits, hits);
         stats.count_work(marcher, before);
 
         // Resolve everything but surface hits; collect those.
@@ -435,7 +433,7 @@ fn trace(
         // Shadow rays of the light samples taken above, all at once.
         if !shadows.pending.is_empty() {
             let before = (marcher.evaluations, marcher.instructions);
-            marcher.march(fs.field(), &shadows.rays, s.limits, &mut shadows.hits);
+            marcher.march(fs.field(), &shadows.rays, s.shot.limits, &mut shadows.hits);
             stats.count_work(marcher, before);
             stats.shadow_rays += shadows.rays.len() as u64;
             for (sh, hit) in shadows.pending.iter().zip(&shadows.hits) {
@@ -621,7 +619,7 @@ fn scatter_in_medium(
     nee: &Nee,
     shadows: &mut Shadows,
 ) -> bool {
-    if path.bounces >= s.bounces {
+    if path.bounces >= s.shot.bounces {
         return false;
     }
     let m = path.stack.medium(fs.medium);
@@ -659,8 +657,8 @@ fn shade(
     // interior tape, for a ray inside an object), not of its distance from the origin.
     let interior = path.stack.len > 0 && fs.interior.is_some() && fs.features.interiors;
     let eps = match h.cell {
-        Some(cell) => cell.epsilon(h.p, s.limits.epsilon, interior),
-        None => epsilon_at(h.p, s.limits.epsilon),
+        Some(cell) => cell.epsilon(h.p, s.shot.limits.epsilon, interior),
+        None => epsilon_at(h.p, s.shot.limits.epsilon),
     };
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
@@ -704,7 +702,7 @@ fn shade(
         Some(w) => path.radiance += path.beta * surface.emission() * w,
         None => path.radiance += path.beta * surface.emission(),
     }
-    if path.bounces >= s.bounces {
+    if path.bounces >= s.shot.bounces {
         return false;
     }
     let u = path.u3();
