@@ -32,7 +32,7 @@ use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::film::PixelSums;
-use crate::vm::cells::{Cell, epsilon_at};
+use crate::vm::cells::{Cell, Cells, epsilon_at};
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
 
@@ -345,6 +345,8 @@ fn trace(
     };
     // Hits hold references into this frame's cells, so they live here, not in `scratch`.
     let mut pending: Vec<Pending> = Vec::new();
+    // Hits are found in their cells from the last hit's cell (`Cells::locate`).
+    let mut near = fs.cells.as_ref().map(Cells::path);
     while !paths.is_empty() {
         rays.clear();
         for path in paths.iter_mut() {
@@ -396,7 +398,8 @@ fn trace(
                         p,
                         t,
                         object: object as u32,
-                        cell: fs.cells.as_ref().map(|c| c.find(p)),
+                        cell: (fs.cells.as_ref().zip(near.as_mut()))
+                            .map(|(c, near)| c.locate(near, p)),
                     })
                 }
             }

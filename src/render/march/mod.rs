@@ -321,7 +321,8 @@ impl Marcher {
             trace.last.resize(rays.len(), 0);
         }
         let mut at: Vec<Option<&Cell>> = vec![None; rays.len()];
-        let mut paths = vec![cells.path(); rays.len()];
+        // Filled on the first pass, which takes every ray in order.
+        let mut paths = Vec::with_capacity(rays.len());
         self.active.clear();
         self.active.extend(0..rays.len() as u32);
         while !self.active.is_empty() {
@@ -332,6 +333,12 @@ impl Marcher {
                 let (r, st) = (&rays[k], &mut self.state[k]);
                 let p = r.o + r.d * st.t;
                 st.p = p;
+                // A ray's first cell is found from the last ray's: rays of one batch start
+                // where their neighbours do (the camera, hits close by), and the cells near
+                // a surface run 24 deep where the scene is far from the origin.
+                if k == paths.len() {
+                    paths.push(paths.last().copied().unwrap_or_else(|| cells.path()));
+                }
                 let mut cell = cells.locate(&mut paths[k], p);
                 if cells.is_outside(cell) {
                     if st.t >= st.escape_at {
