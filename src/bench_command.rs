@@ -58,7 +58,8 @@ pub struct BenchArgs {
     /// examples, sphere unions of 16 and 1024, a custom field, a tiling, a room of rounded
     /// boxes, a turned slab and generated scenes), paired and alternating, and print each
     /// scene's ratio (default / plain) and their geometric mean. Run it from the repository
-    /// root. --repeats sets the renders of each (default 3), --threads the threads (default 2).
+    /// root. --repeats sets the least pairs of renders of each (default 3; a scene takes more, up to
+    /// 31, until its default renders add up to half a second), --threads the threads (default 2).
     #[arg(long, conflicts_with_all = ["file", "costs", "reference", "reference_spp", "spp_list", "families", "size", "frames", "quick", "out"])]
     marcher_corpus: bool,
     /// With --marcher-corpus: how many generated scenes (seeds 1, 2, ...).
@@ -188,21 +189,23 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
     println!("- command: `{}`", command_line());
     println!("- machine: {}", report::machine());
     println!(
-        "- {runs} paired render(s) of each scene, alternating, {} thread(s), no denoiser; \
-         times are medians, ratio = default / plain\n",
+        "- at least {runs} paired render(s) of each scene, alternating, and more until the \
+         default's add up to half a second; {} thread(s), no denoiser; times are medians, \
+         ratio = the median of the pairs' default / plain\n",
         threads
     );
     println!(
-        "| scene | default (s) | plain (s) | ratio | out of steps (default) | out of steps (plain) | choice (first frame) |"
+        "| scene | pairs | default (s) | plain (s) | ratio | out of steps (default) | out of steps (plain) | choice (first frame) |"
     );
-    println!("|---|--:|--:|--:|--:|--:|---|");
+    println!("|---|--:|--:|--:|--:|--:|--:|---|");
     let mut rows = vec![];
     for entry in &entries {
         let scene = entry.scene(Path::new("."))?;
         let m = corpus::measure(&entry.name, &scene, runs, Some(threads))?;
         println!(
-            "| {} | {} | {} | {:.2} | {} | {} | {} |",
+            "| {} | {} | {} | {} | {:.2} | {} | {} | {} |",
             m.name,
+            m.pairs,
             sig(m.default_s, 3),
             sig(m.plain_s, 3),
             m.ratio(),

@@ -485,3 +485,20 @@ fn every_marcher_corpus_scene_compiles() {
         );
     }
 }
+
+/// The corpus takes more pairs of a short scene until its default renders add up to half a
+/// second (at most 31), and at least as many as asked; its ratio is the median of the pairs'.
+#[test]
+fn the_corpus_times_short_scenes_more_often() {
+    use hyperslice::sweep::corpus;
+    // An 8 x 8 generated scene renders in well under a millisecond.
+    let source = hyperslice::generate::generate(3).source;
+    let scene = Compilation::from_source("tiny", &source)
+        .into_scene_named("tiny")
+        .expect("a generated scene compiles");
+    let m = corpus::measure("tiny", &scene, 1, Some(1)).expect("renders");
+    assert_eq!(m.pairs, 31, "{m:?}");
+    assert!(m.ratio().is_finite() && m.ratio() > 0.0, "{m:?}");
+    let m = corpus::measure("tiny", &scene, 40, Some(1)).expect("renders");
+    assert_eq!(m.pairs, 40, "{m:?}");
+}

@@ -3,8 +3,8 @@
 //! paired and alternating, on scenes wider than the examples: the five examples, sphere unions
 //! of 16 and 1024, a custom `sdf` field of 625 spheres, a grid tiling, a room of rounded boxes,
 //! a turned slab, and generated scenes (`crate::generate`). Each scene's ratio is the median
-//! time of the default over the median of plain; a ratio above 1 means the default marcher is
-//! slower there.
+//! over its pairs of the default's time over plain's; a ratio above 1 means the default
+//! marcher is slower there. Short scenes take more pairs (`measure`).
 
 use super::median;
 use crate::Compilation;
@@ -141,12 +141,18 @@ impl Entry {
     }
 }
 
-/// One scene's figures: median seconds with each marcher, and segments out of steps.
+/// One scene's figures: median seconds with each marcher, the median of the paired ratios,
+/// and segments out of steps.
 #[derive(Clone, Debug)]
 pub struct Measured {
     pub name: String,
     pub default_s: f64,
     pub plain_s: f64,
+    /// The median over the pairs of default over plain: a pair's two renders run one after
+    /// the other, so the machine's load drifting between pairs cancels in each ratio.
+    pub ratio: f64,
+    /// Paired renders taken (`measure`).
+    pub pairs: u32,
     pub default_out_of_steps: u64,
     pub plain_out_of_steps: u64,
     /// What the default marcher chose for the first frame, and why.
@@ -154,17 +160,27 @@ pub struct Measured {
 }
 
 impl Measured {
-    /// Default over plain.
+    /// Default over plain: the median of the paired ratios.
     pub fn ratio(&self) -> f64 {
-        self.default_s / self.plain_s
+        self.ratio
     }
 }
 
-/// Render `scene` `runs` times with each marcher, alternating (default first), on `threads`.
+/// A scene's pairs go on past `runs` until the default marcher's renders add up to this
+/// many seconds: a 5 ms render timed three times moved its ratio between 1.0 and 2.2 from
+/// one run of the corpus to the next.
+const MIN_SECONDS: f64 = 0.5;
+/// The most pairs a scene takes (unless `runs` asks for more).
+const MAX_PAIRS: u32 = 31;
+
+/// Render `scene` at least `runs` times with each marcher, alternating (default first), on
+/// `threads`, and on until the default's renders add up to `MIN_SECONDS` (at most
+/// `MAX_PAIRS` pairs).
 pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> Result<Measured> {
     let mut times = [vec![], vec![]];
     let mut out_of_steps = [0, 0];
-    for _ in 0..runs {
+    let mut pairs = 0;
+    while pairs < runs || (times[0].iter().sum::<f64>() < MIN_SECONDS && pairs < MAX_PAIRS) {
         for (i, marcher) in [MarcherKind::Auto, MarcherKind::Plain]
             .into_iter()
             .enumerate()
@@ -178,13 +194,17 @@ pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> 
             times[i].push(rendered.elapsed.as_secs_f64());
             out_of_steps[i] = rendered.stats.out_of_steps;
         }
+        pairs += 1;
     }
+    let mut ratios: Vec<f64> = times[0].iter().zip(&times[1]).map(|(d, p)| d / p).collect();
     let first = Frames::new(scene).at(0.0, Build::marcher(MarcherKind::Auto));
     Ok(Measured {
         choice: first.probe.expect("the default marcher probes").choice(),
         name: name.to_string(),
         default_s: median(&mut times[0]),
         plain_s: median(&mut times[1]),
+        ratio: median(&mut ratios),
+        pairs,
         default_out_of_steps: out_of_steps[0],
         plain_out_of_steps: out_of_steps[1],
     })
