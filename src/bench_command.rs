@@ -208,7 +208,7 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
             m.pairs,
             sig(m.default_s, 3),
             sig(m.plain_s, 3),
-            m.ratio(),
+            m.ratio,
             m.default_out_of_steps,
             m.plain_out_of_steps,
             m.choice.name()
@@ -216,8 +216,8 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
         rows.push(m);
     }
     let above: Vec<String> = (rows.iter())
-        .filter(|m| m.ratio() > 1.0)
-        .map(|m| format!("{} ({:.2}, {})", m.name, m.ratio(), m.choice.name()))
+        .filter(|m| m.ratio > 1.0)
+        .map(|m| format!("{} ({:.2}, {})", m.name, m.ratio, m.choice.name()))
         .collect();
     println!(
         "\ngeometric mean of the ratios: {:.2}; above 1: {}",

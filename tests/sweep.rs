@@ -498,7 +498,7 @@ fn the_corpus_times_short_scenes_more_often() {
         .expect("a generated scene compiles");
     let m = corpus::measure("tiny", &scene, 1, Some(1)).expect("renders");
     assert_eq!(m.pairs, 31, "{m:?}");
-    assert!(m.ratio().is_finite() && m.ratio() > 0.0, "{m:?}");
+    assert!(m.ratio.is_finite() && m.ratio > 0.0, "{m:?}");
     let m = corpus::measure("tiny", &scene, 40, Some(1)).expect("renders");
     assert_eq!(m.pairs, 40, "{m:?}");
 }

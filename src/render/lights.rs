@@ -117,7 +117,8 @@ pub fn sample_cone_theta(a: f64, u: f64) -> f64 {
 /// step). It stops after a Newton step below `1e-8 a`: convergence is quadratic with the
 /// constant `g'' / 2 g' = cot theta`, so the point that step reaches is within about
 /// `1e-16 a^2 / theta` of the root. A cone of 0.3 rad took 4.2 evaluations on average with the
-/// first-order guess and a tolerance of `1e-15 a`, and takes 2.0.
+/// first-order guess and a tolerance of `1e-15 a`, and takes 2.0 (a model of this solver,
+/// 2,000 `u`).
 pub fn solve_cone_theta(a: f64, u: f64, f_df: impl Fn(f64, f64) -> (f64, f64)) -> f64 {
     let y = u.clamp(0.0, 1.0) * cap_integral(a);
     let t0 = (1.5 * y).cbrt();

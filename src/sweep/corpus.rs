@@ -159,13 +159,6 @@ pub struct Measured {
     pub choice: Choice,
 }
 
-impl Measured {
-    /// Default over plain: the median of the paired ratios.
-    pub fn ratio(&self) -> f64 {
-        self.ratio
-    }
-}
-
 /// A scene's pairs go on past `runs` until the default marcher's renders add up to this
 /// many seconds: a 5 ms render timed three times moved its ratio between 1.0 and 2.2 from
 /// one run of the corpus to the next.
@@ -212,6 +205,6 @@ pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> 
 
 /// The geometric mean of the ratios.
 pub fn geometric_mean(rows: &[Measured]) -> f64 {
-    let logs: f64 = rows.iter().map(|m| m.ratio().ln()).sum();
+    let logs: f64 = rows.iter().map(|m| m.ratio.ln()).sum();
     (logs / rows.len().max(1) as f64).exp()
 }

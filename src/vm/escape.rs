@@ -184,7 +184,7 @@ impl Escape {
 /// through D4 tilings, whose offsets range over their whole cell along every ray that goes
 /// on for ever, so its bounds along any such ray are its bounds over all of space, and those
 /// reach zero (for rays inside objects, contain it). A packing of spheres is one: every try
-/// failed, and tries were 7% of `d4_packing`'s render. (A rectangular tiling is not: along a
+/// failed, and skipping them made `d4_packing`'s render about 9% faster. (A rectangular tiling is not: along a
 /// ray square to an axis, that axis's offset stays put, and a ray in a channel may clear.)
 fn never_clears(g: &Graph, roots: &[Id]) -> [bool; 2] {
     // Which nodes read the position only through D4 nodes' outputs (or not at all).
