@@ -4,6 +4,7 @@
 //! scene or its IR: the compile stage (`compile::Frames`) builds these.
 
 use super::camera::FrameCamera;
+use super::integrator::Stack;
 use super::lights::Lights;
 use super::march::{Field, Limits, MarcherKind};
 use super::material::{Layout, Medium};
@@ -124,12 +125,15 @@ impl FrameScene {
     /// Under [`MarcherKind::Auto`]: probe the frame's rays and drop its cells where marching
     /// them would not pay (`render::probe`), keeping what the probe found.
     pub fn choose_marcher(&mut self, shot: &Shot) {
+        let inside =
+            self.interior.is_some() && !Stack::at_camera(self, shot.limits.epsilon).is_empty();
         let probe = Probe::run(
             self.field(),
             &self.camera,
             &self.objects,
             (shot.width, shot.height),
             shot.limits,
+            inside,
         );
         if !probe.cells_pay() {
             self.cells = None;

@@ -122,6 +122,11 @@ impl Stack {
         len: 0,
     };
 
+    /// Whether the path is in no object's medium.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
     fn medium(&self, outside: Medium) -> Medium {
         if self.len == 0 {
             outside

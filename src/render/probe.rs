@@ -4,7 +4,9 @@
 //! nothing prunes it (a tiling alone) that costs more than it saves. Before a frame renders,
 //! a fixed probe of rays (camera rays through a grid of pixels, then two mirror bounces from
 //! their hits) is marched through the cells and on the whole tape (both with relaxed steps), and
-//! the frame keeps its cells only where their modelled cost is lower. The model counts, not clocks (`Work::cost`), so the choice is the
+//! the frame keeps its cells only where their modelled cost is lower. The whole tape goes
+//! first: where its march costs less than the cells would spend setting up the same rays, the
+//! cells are not marched at all. The model counts, not clocks (`Work::cost`), so the choice is the
 //! same in every run, on every machine and whatever the thread count.
 
 use super::camera::FrameCamera;
@@ -34,6 +36,8 @@ pub struct Work {
     pub rays: u64,
     /// Graph nodes bounded to prove that rays escape (`Escape::escapes`).
     pub bounded: u64,
+    /// Graph nodes walked in `f64` where `f32` cannot decide a hit (`Escape::distance`).
+    pub walked: u64,
     /// Steps (sphere steps, jumps across cells, steps back) per lane.
     pub steps: u64,
     /// Tape instructions run per lane.
@@ -50,22 +54,28 @@ impl Work {
             + w.step * self.steps as f64
             + w.instruction * self.instructions as f64
             + w.bounded * self.bounded as f64
+            + w.walked * self.walked as f64
     }
 }
 
 /// What each count costs a marcher, in nanoseconds on the 2-core development machine: a ray's
 /// set-up, a step's bookkeeping (for the cells, finding the cell and grouping rays by cell), a
 /// tape instruction per lane (the cells' groups are small, so their runs are narrow and dearer
-/// per lane), a node bounded for an escape proof. Fitted (non-negative least squares, relative
+/// per lane), a node bounded for an escape proof, a node walked in `f64` (`WALKED`). Fitted (non-negative least squares, relative
 /// error) to both marchers timed alone on the probe rays of 50 scenes: the examples, sphere
 /// unions, a custom field, a tiling, a turned slab and 40 generated scenes
 /// (`docs/performance.md`, "Cells only where they pay"). Evaluations, fitted too, took no
 /// weight of their own. Only the ratio of the two costs matters, so the machine's speed drops out.
+/// A graph node walked in `f64` costs either marcher the same: 7 to 15 ns, timed over 200,000
+/// walks of each of six generated scenes' graphs (13 to 105 nodes), 12 on most.
+const WALKED: f64 = 12.0;
+
 struct Weights {
     ray: f64,
     step: f64,
     instruction: f64,
     bounded: f64,
+    walked: f64,
 }
 
 const CELLS: Weights = Weights {
@@ -73,6 +83,7 @@ const CELLS: Weights = Weights {
     step: 39.0,
     instruction: 0.77,
     bounded: 19.0,
+    walked: WALKED,
 };
 
 const WHOLE: Weights = Weights {
@@ -80,35 +91,31 @@ const WHOLE: Weights = Weights {
     step: 14.0,
     instruction: 0.16,
     bounded: 21.0,
+    walked: WALKED,
 };
 
-/// The probe's outcome: what each marcher's march of it cost (as far as they went: the
-/// whole-tape march stops once it costs more than the cells', and both stop once the camera
-/// or a hit is not resolved on the whole tape or the camera is found inside an object, where
-/// the frame keeps its cells in any case).
+/// The probe's outcome: what each marcher's march of it cost (as far as it went: the
+/// whole-tape march stops once it costs more than the cells').
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
-    /// What marching through the cells cost.
-    pub cells: Work,
+    /// What marching through the cells cost; `None` where they were not marched, the whole
+    /// tape's march alone showing that they cannot pay.
+    pub cells: Option<Work>,
     /// What marching the whole tape cost, as far as it went.
     pub whole: Work,
-    /// The whole-tape marcher resolves the epsilon at the camera and at every hit of the probe
-    /// (`f32` coordinates of the whole tape; the cells resolve it locally).
-    pub resolved: bool,
-    /// Most camera rays meet a surface where they start: the camera is inside an object, where
-    /// the render marches them on the interior tape, which the probe does not measure.
-    pub inside: bool,
 }
 
 impl Probe {
     /// March the probe through `cells` (a frame's field with cells) and the same field without
-    /// them, for an image of `width` x `height`.
+    /// them, for an image of `width` x `height`; camera rays march on the interior tape where
+    /// the camera is `inside` an object that can be entered, as the render's do.
     pub fn run(
         cells: Field,
         camera: &FrameCamera,
         objects: &[FrameObject],
         (width, height): (u32, u32),
         limits: Limits,
+        inside: bool,
     ) -> Probe {
         let whole = Field {
             cells: None,
@@ -131,47 +138,23 @@ impl Probe {
                     rows,
                 ),
                 tmax: f64::INFINITY,
-                interior: false,
+                interior: inside,
             })
             .collect();
-        let mut probe = Probe {
-            cells: Work::default(),
-            whole: Work::default(),
-            resolved: epsilon_at(camera.position, limits.epsilon) <= limits.epsilon,
-            inside: false,
-        };
-        // The choice is cells whatever the marches would cost: stop as soon as it is made
-        // (the probe was up to a tenth of such a frame's render at the corpus's sizes).
-        if !probe.resolved {
-            return probe;
-        }
         let (mut marcher, mut hits) = (Marcher::default(), vec![]);
         let mut grad = Regs { r: vec![] };
+        if let Some(whole) = whole_alone(&mut marcher, whole, &rays, objects, limits, &mut grad) {
+            return Probe { cells: None, whole };
+        }
+        let mut probe = Probe {
+            cells: Some(Work::default()),
+            whole: Work::default(),
+        };
+        let mut done = Work::default();
         let mut all = vec![];
         for generation in 0..=BOUNCES {
-            march(
-                &mut marcher,
-                cells,
-                &rays,
-                limits,
-                &mut hits,
-                &mut probe.cells,
-            );
+            march(&mut marcher, cells, &rays, limits, &mut hits, &mut done);
             all.extend_from_slice(&rays);
-            let mut at_start = 0;
-            for (r, h) in rays.iter().zip(&hits) {
-                if let Hit::Surface { t, .. } = *h {
-                    let p = r.o + r.d * t;
-                    probe.resolved &= epsilon_at(p, limits.epsilon) <= limits.epsilon;
-                    at_start += (t == 0.0) as usize;
-                }
-            }
-            if generation == 0 {
-                probe.inside = 2 * at_start > rays.len();
-                if probe.inside {
-                    return probe;
-                }
-            }
             if generation == BOUNCES {
                 break;
             }
@@ -180,10 +163,8 @@ impl Probe {
         // On the whole tape, an eighth of the rays at a time, and no more once that costs
         // more than the cells' march: the cells pay whatever the rest would cost, and a
         // whole-tape march of a dense union is most of what the probe would spend.
-        if !probe.resolved {
-            return probe;
-        }
-        let cells_cost = probe.cells.cost(&CELLS);
+        probe.cells = Some(done);
+        let cells_cost = done.cost(&CELLS);
         for k in 0..SHARES {
             let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
             march(
@@ -202,22 +183,21 @@ impl Probe {
     }
 
     /// Whether the frame should march through its cells: they cost less than marching the whole
-    /// tape, or marching it would lose rays to the step limit or to `f32` that they do not.
+    /// tape, or marching it would lose rays to the step limit that they do not.
     pub fn cells_pay(&self) -> bool {
         self.choice() != Choice::Whole
     }
 
     /// The marcher the frame should use, and why.
     pub fn choice(&self) -> Choice {
-        if self.inside {
-            Choice::CellsForInside
-        } else if !self.resolved {
-            Choice::CellsForPrecision
-        } else if self.whole.strained > 2 * self.cells.strained + self.cells.rays / 256 {
+        let Some(cells) = self.cells else {
+            return Choice::Whole;
+        };
+        if self.whole.strained > 2 * cells.strained + cells.rays / 256 {
             // Many more crawling rays than the cells have: the whole tape would lose a visible band of
             // them (a horizon over a floor). A few in a lattice's channels crawl either way.
             Choice::CellsForSteps
-        } else if self.cells.cost(&CELLS) <= self.whole.cost(&WHOLE) {
+        } else if cells.cost(&CELLS) <= self.whole.cost(&WHOLE) {
             Choice::CellsForSpeed
         } else {
             Choice::Whole
@@ -228,10 +208,6 @@ impl Probe {
 /// What the probe chose for a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Choice {
-    /// Cells, because the camera is inside an object (the probe measures rays outside).
-    CellsForInside,
-    /// Cells, because the whole tape's `f32` coordinates cannot resolve the epsilon.
-    CellsForPrecision,
     /// Cells, because the whole tape takes many more probe rays near the step limit.
     CellsForSteps,
     /// Cells, because they cost less.
@@ -244,14 +220,47 @@ impl Choice {
     /// How the bench names it.
     pub fn name(self) -> &'static str {
         match self {
-            Choice::CellsForInside => "cells (camera inside)",
-            Choice::CellsForPrecision => "cells (precision)",
             Choice::CellsForSteps => "cells (steps)",
             Choice::CellsForSpeed => "cells (speed)",
             Choice::Whole => "whole (speed)",
         }
     }
 }
+
+/// The probe on the whole tape alone, from the camera rays `rays`, where it shows that the cells
+/// cannot pay: their march costs at least their set-up of each ray (`CELLS.ray`), and the
+/// whole tape's costs less in all (without many crawling rays, which would choose the cells
+/// for steps). Building and marching the cells was up to a tenth of a small frame's render
+/// (0.6 ms of 9 for a generated scene at 96 x 72, 4 spp) where the whole tape then won.
+/// Marched `CHUNK` rays at a time, it gives up (`None`) as soon as it costs more.
+fn whole_alone(
+    marcher: &mut Marcher,
+    whole: Field,
+    rays: &[Ray],
+    objects: &[FrameObject],
+    limits: Limits,
+    grad: &mut Regs<Dual, LANES>,
+) -> Option<Work> {
+    let (mut work, mut hits, mut found) = (Work::default(), vec![], vec![]);
+    let mut rays = rays.to_vec();
+    for generation in 0..=BOUNCES {
+        found.clear();
+        for chunk in rays.chunks(CHUNK) {
+            march(marcher, whole, chunk, limits, &mut hits, &mut work);
+            if work.cost(&WHOLE) > work.rays as f64 * CELLS.ray {
+                return None;
+            }
+            found.extend_from_slice(&hits);
+        }
+        if generation < BOUNCES {
+            rays = bounce(&rays, &found, objects, grad, limits);
+        }
+    }
+    (work.strained <= work.rays / 256).then_some(work)
+}
+
+/// Rays the whole tape's march of the probe takes at a time before it checks its cost.
+const CHUNK: usize = 16;
 
 /// March `rays` through `field`, adding what it cost to `work`.
 fn march(
@@ -262,11 +271,16 @@ fn march(
     hits: &mut Vec<Hit>,
     work: &mut Work,
 ) {
-    let before = (marcher.instructions, marcher.proofs.bounded);
+    let before = (
+        marcher.instructions,
+        marcher.proofs.bounded,
+        marcher.proofs.walked,
+    );
     marcher.march(field, rays, limits, hits);
     work.rays += rays.len() as u64;
     work.instructions += marcher.instructions - before.0;
     work.bounded += marcher.proofs.bounded - before.1;
+    work.walked += marcher.proofs.walked - before.2;
     let strain = (limits.max_steps / 4).max(1);
     for s in marcher.last_steps() {
         work.steps += s as u64;
@@ -274,7 +288,7 @@ fn march(
     }
 }
 
-/// The mirror bounces of the rays that hit a surface, from just outside it.
+/// The mirror bounces of the rays that hit a surface, from just off it on the ray's side.
 fn bounce(
     rays: &[Ray],
     hits: &[Hit],
@@ -301,7 +315,8 @@ fn bounce(
             o: p + n * (4.0 * eps),
             d: (r.d - 2.0 * r.d.dot(n) * n).normalize(),
             tmax: f64::INFINITY,
-            interior: false,
+            // A mirror bounce stays on the side the ray came from.
+            interior: r.interior,
         });
     }
     out

@@ -71,6 +71,7 @@ impl Escape {
         // Distances do not read the normal.
         let vars = eval::vars(p.to_array(), [0.0; 4], self.t);
         eval::walk(&self.whole, None, &vars, &mut proofs.point);
+        proofs.walked += self.whole.len() as u64;
         let at = |id: Id| proofs.point[id.0 as usize][0];
         (at(root), at(near))
     }
@@ -216,6 +217,8 @@ pub struct Proofs {
     point: Vec<[f64; 8]>,
     /// Graph nodes bounded to prove that rays escape, for the statistics.
     pub bounded: u64,
+    /// Graph nodes walked in `f64` for distances at points (`Escape::distance`).
+    pub walked: u64,
 }
 
 /// The most pieces a stretch is split into at tilings' cells (`Escape::clear`): each costs a

@@ -1,6 +1,7 @@
 //! Sphere tracing on the whole scene tape (the interior tape for rays inside objects),
 //! `LANES` rays per run, a hit where the distance is below the epsilon (grown with the
-//! coordinates as `f32` needs). No cells and no exact shortcuts. With `Field::relax` (the
+//! coordinates as `f32` needs; where that exceeds the epsilon, the hit settles in `f64`,
+//! `approach`). No cells and no exact shortcuts. With `Field::relax` (the
 //! whole-tape marcher, `--marcher whole`) steps are over-relaxed and checked as the cells'
 //! are (`unrelax`); without it (`--marcher plain`) each step is the distance itself: the
 //! baseline the other marchers are timed and tested against. A ray sees the sky on the same
@@ -8,7 +9,7 @@
 //! as there (`crawl`), and a ray inside objects steps as carefully as there (`careful`).
 
 use super::{
-    Field, Hit, Limits, Marcher, Ray, State, Step, careful, crawl, finish, retry, unrelax,
+    Field, Hit, Limits, Marcher, Ray, State, Step, approach, careful, crawl, finish, retry, unrelax,
 };
 use crate::vm::cells::epsilon_at;
 use crate::vm::escape::Proofs;
@@ -61,13 +62,24 @@ impl Marcher {
                             field.escape,
                             st,
                             r,
-                            (d, tol, f64::INFINITY),
+                            (d, tol, f64::INFINITY, limits.epsilon),
                             &mut self.proofs,
                         )
                     } else if d < tol && near >= 0.0 {
-                        Step::Hit {
-                            t: st.t,
-                            object: near as usize,
+                        if tol > limits.epsilon {
+                            approach(
+                                field.escape,
+                                r,
+                                st,
+                                (d, near as usize),
+                                (tol, limits.epsilon),
+                                &mut self.proofs,
+                            )
+                        } else {
+                            Step::Hit {
+                                t: st.t,
+                                object: near as usize,
+                            }
                         }
                     } else if let Some(s) = crawl(field.escape, r, st, d, &mut self.proofs) {
                         s
