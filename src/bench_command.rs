@@ -189,7 +189,8 @@ fn marcher_corpus(args: &BenchArgs) -> hyperslice::error::Result<()> {
     println!("- command: `{}`", command_line());
     println!("- machine: {}", report::machine());
     println!(
-        "- at least {runs} paired render(s) of each scene, alternating, and more until the \
+        "- at least {runs} paired render(s) of each scene, alternating (each pair in the other \
+         order), and more until the \
          default's add up to half a second; {} thread(s), no denoiser; times are medians, \
          ratio = the median of the pairs' default / plain\n",
         threads

@@ -1131,7 +1131,8 @@ fn only_distances_become_exact_spheres() {
 /// union of 1024 spheres (cells cut each step to the few spheres nearby); on a sphere 1e6 from
 /// the origin, which its cell meets exactly where the whole tape's hits settle in `f64`; and
 /// with the camera inside glass, whose rays the probe marches on the interior tape as the
-/// render does. The probe stays small whatever the image's shape.
+/// render does. The probe stays small whatever the image's shape. On a turned slab, relaxed
+/// steps overshoot its planes and step back more than they gain: plain steps.
 #[test]
 fn frames_march_through_cells_only_where_they_pay() {
     use hyperslice::compile::Frames;
@@ -1148,10 +1149,12 @@ fn frames_march_through_cells_only_where_they_pay() {
     let tall = "render { size = 16 x 16384 }\n\
                 camera { from = [0, 0, -5, 0] }\n\
                 object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }";
+    // (scene, cells kept, relaxed steps)
     let cases = [
         (
             Compilation::from_path(Path::new("examples/d4_packing.4ds")),
             false,
+            true,
         ),
         (
             Compilation::from_path_with(
@@ -1159,18 +1162,25 @@ fn frames_march_through_cells_only_where_they_pay() {
                 &["n=32".to_string()],
             ),
             true,
+            true,
         ),
-        (Compilation::from_source("far.4ds", far), true),
-        (Compilation::from_source("inside.4ds", inside), true),
-        (Compilation::from_source("tall.4ds", tall), false),
+        (Compilation::from_source("far.4ds", far), true, true),
+        (Compilation::from_source("inside.4ds", inside), true, true),
+        (Compilation::from_source("tall.4ds", tall), false, true),
+        (
+            Compilation::from_path(Path::new("benches/scenes/turned_slab.4ds")),
+            false,
+            false,
+        ),
     ];
-    for (c, cells) in cases {
+    for (c, cells, relax) in cases {
         assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
         let scene = c.scene.expect("a scene");
         let frames = Frames::new(&scene);
         let fs = frames.at(0.0, Build::marcher(MarcherKind::Auto));
         let probe = fs.probe.expect("the default marcher probes");
         assert_eq!(fs.cells.is_some(), cells, "{probe:?}");
+        assert_eq!(fs.relax, relax, "{probe:?}");
         let rays = probe.cells.map_or(probe.whole.rays, |c| c.rays);
         assert!(rays <= 3 * 24 * 24, "{probe:?}");
     }

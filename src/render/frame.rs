@@ -8,7 +8,7 @@ use super::integrator::Stack;
 use super::lights::Lights;
 use super::march::{Field, Limits, MarcherKind};
 use super::material::{Layout, Medium};
-use super::probe::Probe;
+use super::probe::{Choice, Probe};
 use crate::vm::Tape;
 use crate::vm::cells::Cells;
 use crate::vm::escape::Escape;
@@ -137,6 +137,9 @@ impl FrameScene {
         );
         if !probe.cells_pay() {
             self.cells = None;
+        }
+        if probe.choice() == Choice::PlainSteps {
+            self.relax = false;
         }
         self.probe = Some(probe);
     }

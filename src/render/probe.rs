@@ -103,6 +103,8 @@ pub struct Probe {
     pub cells: Option<Work>,
     /// What marching the whole tape cost, as far as it went.
     pub whole: Work,
+    /// What marching the whole tape with plain steps cost, where the whole tape won.
+    pub plain: Option<Work>,
 }
 
 impl Probe {
@@ -128,7 +130,7 @@ impl Probe {
             max_steps: limits.max_steps.min(STEPS),
             ..limits
         };
-        let mut rays: Vec<Ray> = (0..columns * rows)
+        let rays: Vec<Ray> = (0..columns * rows)
             .map(|i| Ray {
                 o: camera.position,
                 d: camera.direction(
@@ -141,57 +143,104 @@ impl Probe {
                 interior: inside,
             })
             .collect();
-        let (mut marcher, mut hits) = (Marcher::default(), vec![]);
-        let mut grad = Regs { r: vec![] };
-        if let Some(whole) = whole_alone(&mut marcher, whole, &rays, objects, limits, &mut grad) {
-            return Probe { cells: None, whole };
-        }
-        let mut probe = Probe {
-            cells: Some(Work::default()),
-            whole: Work::default(),
+        let (mut marcher, mut grad) = (Marcher::default(), Regs { r: vec![] });
+        let alone = whole_alone(
+            &mut marcher,
+            whole,
+            rays.clone(),
+            objects,
+            limits,
+            &mut grad,
+        );
+        let (mut probe, all) = match alone {
+            Some((whole, all)) => {
+                let probe = Probe {
+                    cells: None,
+                    whole,
+                    plain: None,
+                };
+                (probe, all)
+            }
+            None => {
+                let (cells, all) =
+                    Probe::cells(&mut marcher, cells, rays, objects, limits, &mut grad);
+                let mut probe = Probe {
+                    cells: Some(cells),
+                    whole: Work::default(),
+                    plain: None,
+                };
+                probe.whole_after_cells(&mut marcher, whole, &all, limits);
+                (probe, all)
+            }
         };
-        let mut done = Work::default();
-        let mut all = vec![];
+        // Relaxed steps lose where they overshoot more than they gain (a slab's planes met
+        // head on): where the whole tape wins, plain steps are measured too.
+        if probe.choice() == Choice::Whole {
+            let plain = Field {
+                relax: false,
+                ..whole
+            };
+            let mut work = Work::default();
+            march(&mut marcher, plain, &all, limits, &mut vec![], &mut work);
+            probe.plain = Some(work);
+        }
+        probe
+    }
+
+    /// The probe through the cells, from the camera rays `rays`: what it cost, and every ray
+    /// it marched.
+    fn cells(
+        marcher: &mut Marcher,
+        cells: Field,
+        mut rays: Vec<Ray>,
+        objects: &[FrameObject],
+        limits: Limits,
+        grad: &mut Regs<Dual, LANES>,
+    ) -> (Work, Vec<Ray>) {
+        let (mut done, mut hits, mut all) = (Work::default(), vec![], vec![]);
         for generation in 0..=BOUNCES {
-            march(&mut marcher, cells, &rays, limits, &mut hits, &mut done);
+            march(marcher, cells, &rays, limits, &mut hits, &mut done);
             all.extend_from_slice(&rays);
             if generation == BOUNCES {
                 break;
             }
-            rays = bounce(&rays, &hits, objects, &mut grad, limits);
+            rays = bounce(&rays, &hits, objects, grad, limits);
         }
-        // On the whole tape, an eighth of the rays at a time, and no more once that costs
-        // more than the cells' march: the cells pay whatever the rest would cost, and a
-        // whole-tape march of a dense union is most of what the probe would spend.
-        probe.cells = Some(done);
-        let cells_cost = done.cost(&CELLS);
+        (done, all)
+    }
+
+    /// The rays `all` the cells marched, on the whole tape: an eighth of them at a time, and
+    /// no more once that costs more than the cells' march (the cells pay whatever the rest
+    /// would cost, and a whole-tape march of a dense union is most of what the probe would
+    /// spend).
+    fn whole_after_cells(
+        &mut self,
+        marcher: &mut Marcher,
+        whole: Field,
+        all: &[Ray],
+        limits: Limits,
+    ) {
+        let cells_cost = self.cells.map_or(0.0, |c| c.cost(&CELLS));
+        let mut hits = vec![];
         for k in 0..SHARES {
             let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
-            march(
-                &mut marcher,
-                whole,
-                &share,
-                limits,
-                &mut hits,
-                &mut probe.whole,
-            );
-            if probe.whole.cost(&WHOLE) > cells_cost {
+            march(marcher, whole, &share, limits, &mut hits, &mut self.whole);
+            if self.whole.cost(&WHOLE) > cells_cost {
                 break;
             }
         }
-        probe
     }
 
     /// Whether the frame should march through its cells: they cost less than marching the whole
     /// tape, or marching it would lose rays to the step limit that they do not.
     pub fn cells_pay(&self) -> bool {
-        self.choice() != Choice::Whole
+        !matches!(self.choice(), Choice::Whole | Choice::PlainSteps)
     }
 
     /// The marcher the frame should use, and why.
     pub fn choice(&self) -> Choice {
         let Some(cells) = self.cells else {
-            return Choice::Whole;
+            return self.steps();
         };
         if self.whole.strained > 2 * cells.strained + cells.rays / 256 {
             // Many more crawling rays than the cells have: the whole tape would lose a visible band of
@@ -200,7 +249,20 @@ impl Probe {
         } else if cells.cost(&CELLS) <= self.whole.cost(&WHOLE) {
             Choice::CellsForSpeed
         } else {
-            Choice::Whole
+            self.steps()
+        }
+    }
+
+    /// On the whole tape: relaxed steps, unless plain ones cost less and crawl no more.
+    fn steps(&self) -> Choice {
+        match self.plain {
+            Some(p)
+                if p.cost(&WHOLE) < self.whole.cost(&WHOLE)
+                    && p.strained <= self.whole.strained =>
+            {
+                Choice::PlainSteps
+            }
+            _ => Choice::Whole,
         }
     }
 }
@@ -214,6 +276,8 @@ pub enum Choice {
     CellsForSpeed,
     /// Relaxed marching on the whole tape, because it costs less.
     Whole,
+    /// Plain steps on the whole tape, because they cost less than relaxed ones there.
+    PlainSteps,
 }
 
 impl Choice {
@@ -223,6 +287,7 @@ impl Choice {
             Choice::CellsForSteps => "cells (steps)",
             Choice::CellsForSpeed => "cells (speed)",
             Choice::Whole => "whole (speed)",
+            Choice::PlainSteps => "whole, plain steps (speed)",
         }
     }
 }
@@ -236,13 +301,12 @@ impl Choice {
 fn whole_alone(
     marcher: &mut Marcher,
     whole: Field,
-    rays: &[Ray],
+    mut rays: Vec<Ray>,
     objects: &[FrameObject],
     limits: Limits,
     grad: &mut Regs<Dual, LANES>,
-) -> Option<Work> {
-    let (mut work, mut hits, mut found) = (Work::default(), vec![], vec![]);
-    let mut rays = rays.to_vec();
+) -> Option<(Work, Vec<Ray>)> {
+    let (mut work, mut hits, mut found, mut all) = (Work::default(), vec![], vec![], vec![]);
     for generation in 0..=BOUNCES {
         found.clear();
         for chunk in rays.chunks(CHUNK) {
@@ -252,11 +316,12 @@ fn whole_alone(
             }
             found.extend_from_slice(&hits);
         }
+        all.extend_from_slice(&rays);
         if generation < BOUNCES {
             rays = bounce(&rays, &found, objects, grad, limits);
         }
     }
-    (work.strained <= work.rays / 256).then_some(work)
+    (work.strained <= work.rays / 256).then_some((work, all))
 }
 
 /// Rays the whole tape's march of the probe takes at a time before it checks its cost.
