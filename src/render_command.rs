@@ -259,7 +259,8 @@ impl From<SamplerArg> for SamplerKind {
 #[derive(Clone, Copy, clap::ValueEnum)]
 enum MarcherArg {
     /// Through the frame's cells where a probe of at most about 1,700 rays shows that they pay,
-    /// on the whole tape (as `whole`) where they do not (the default).
+    /// on the whole tape (as `whole`, or with plain steps where those cost less) where they do
+    /// not (the default).
     Auto,
     /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
     /// whether or not they pay.

@@ -64,7 +64,8 @@ pub struct FrameScene {
     /// What proves that a ray has left every object.
     #[doc(hidden)]
     pub escape: Escape,
-    /// Whether rays over-relax their steps (every marcher but the plain one).
+    /// Whether rays over-relax their steps (every marcher but the plain one, and `auto` where
+    /// its probe finds plain steps cheaper).
     pub relax: bool,
     /// What the probe that chose the marcher found (`MarcherKind::Auto` only).
     #[doc(hidden)]
@@ -123,7 +124,8 @@ pub trait FrameSource: Sync {
 
 impl FrameScene {
     /// Under [`MarcherKind::Auto`]: probe the frame's rays and drop its cells where marching
-    /// them would not pay (`render::probe`), keeping what the probe found.
+    /// them would not pay (`render::probe`), and the relaxation where plain steps cost less,
+    /// keeping what the probe found.
     pub fn choose_marcher(&mut self, shot: &Shot) {
         let inside =
             self.interior.is_some() && !Stack::at_camera(self, shot.limits.epsilon).is_empty();

@@ -32,7 +32,8 @@ use std::collections::HashMap;
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum MarcherKind {
     /// Through the frame's cells where a probe of at most about 1,700 rays shows that they pay,
-    /// on the whole tape (as `whole`) where they do not (the default).
+    /// on the whole tape (as `whole`, or with plain steps where those cost less) where they do
+    /// not (the default).
     #[default]
     Auto,
     /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
@@ -644,8 +645,9 @@ fn retry(t: f64) -> f64 {
 /// of the true one; where nothing does (outside the cells' cube, or on the whole tape), the
 /// tape is trusted only `NEAR` epsilons from a surface. Nearer, the distance in `f64` decides
 /// (`Escape::distance`). Trusting the tape there ended rays that far from a surface, or let
-/// them through it. A hit is a distance in `f64` below `fine`: `tol` in a cell, which resolves
-/// the epsilon; the epsilon itself on the whole tape, whose `tol` grows with the coordinates.
+/// them through it. A hit is a distance in `f64` below `fine`: `tol` in the cells (the
+/// epsilon near a cell's origin, more outside their cube); the epsilon itself on the whole
+/// tape, whose `tol` grows with the coordinates.
 /// Crawling rays leap (`crawl`) here too.
 fn careful(
     escape: &Escape,
@@ -775,6 +777,11 @@ fn approach(
         if d > tol {
             break;
         }
+    }
+    // An epsilon below `f64`'s spacing at `t` leaves nothing to step: the ray is as close as
+    // it can be.
+    if at == t {
+        return Step::Hit { t, object };
     }
     Step::Advance(at - t)
 }
