@@ -165,8 +165,16 @@ impl Probe {
                 (probe, all)
             }
             None => {
-                let (cells, all) =
-                    Probe::cells(&mut marcher, cells, rays, objects, limits, &mut grad);
+                let never = (usize::MAX, |_: &Work| false);
+                let marched = generations(
+                    &mut marcher,
+                    cells,
+                    rays,
+                    (objects, limits),
+                    &mut grad,
+                    never,
+                );
+                let (cells, all) = marched.expect("the cells' march never gives up");
                 let mut probe = Probe {
                     cells: Some(cells),
                     whole: Work::default(),
@@ -188,28 +196,6 @@ impl Probe {
             probe.plain = Some(work);
         }
         probe
-    }
-
-    /// The probe through the cells, from the camera rays `rays`: what it cost, and every ray
-    /// it marched.
-    fn cells(
-        marcher: &mut Marcher,
-        cells: Field,
-        mut rays: Vec<Ray>,
-        objects: &[FrameObject],
-        limits: Limits,
-        grad: &mut Regs<Dual, LANES>,
-    ) -> (Work, Vec<Ray>) {
-        let (mut done, mut hits, mut all) = (Work::default(), vec![], vec![]);
-        for generation in 0..=BOUNCES {
-            march(marcher, cells, &rays, limits, &mut hits, &mut done);
-            all.extend_from_slice(&rays);
-            if generation == BOUNCES {
-                break;
-            }
-            rays = bounce(&rays, &hits, objects, grad, limits);
-        }
-        (done, all)
     }
 
     /// The rays `all` the cells marched, on the whole tape: an eighth of them at a time, and
@@ -306,17 +292,40 @@ impl Choice {
 fn whole_alone(
     marcher: &mut Marcher,
     whole: Field,
-    mut rays: Vec<Ray>,
+    rays: Vec<Ray>,
     objects: &[FrameObject],
     limits: Limits,
     grad: &mut Regs<Dual, LANES>,
 ) -> Option<(Work, Vec<Ray>)> {
+    let give_up = |work: &Work| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
+    let (work, all) = generations(
+        marcher,
+        whole,
+        rays,
+        (objects, limits),
+        grad,
+        (CHUNK, give_up),
+    )?;
+    (work.strained <= work.rays / 256).then_some((work, all))
+}
+
+/// The probe's rays on `field`: the camera rays `rays`, then `BOUNCES` generations of mirror
+/// bounces from their hits, `chunk` rays per march; what that cost and every ray marched, or
+/// `None` as soon as `give_up` says so of the cost so far.
+fn generations(
+    marcher: &mut Marcher,
+    field: Field,
+    mut rays: Vec<Ray>,
+    (objects, limits): (&[FrameObject], Limits),
+    grad: &mut Regs<Dual, LANES>,
+    (chunk, give_up): (usize, impl Fn(&Work) -> bool),
+) -> Option<(Work, Vec<Ray>)> {
     let (mut work, mut hits, mut found, mut all) = (Work::default(), vec![], vec![], vec![]);
     for generation in 0..=BOUNCES {
         found.clear();
-        for chunk in rays.chunks(CHUNK) {
-            march(marcher, whole, chunk, limits, &mut hits, &mut work);
-            if work.cost(&WHOLE) > work.rays as f64 * CELLS.ray {
+        for part in rays.chunks(chunk) {
+            march(marcher, field, part, limits, &mut hits, &mut work);
+            if give_up(&work) {
                 return None;
             }
             found.extend_from_slice(&hits);
@@ -326,7 +335,7 @@ fn whole_alone(
             rays = bounce(&rays, &found, objects, grad, limits);
         }
     }
-    (work.strained <= work.rays / 256).then_some((work, all))
+    Some((work, all))
 }
 
 /// Rays the whole tape's march of the probe takes at a time before it checks its cost.
