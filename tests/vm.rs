@@ -536,6 +536,75 @@ const SHAPES: &[(&str, &[[f64; 4]])] = &[
     ("hyperbox(1) |> rotate(xw, t * 90deg)", &[]),
 ];
 
+/// Shapes whose balls (`Shape::bounds`) come from more than their primitives' radii: turned
+/// about the origin off their centre (at a fixed angle and with `t`), mirrored off their
+/// centre, and tiled on a limited grid, alone and turned.
+const BOUNDED: &[&str] = &[
+    "hypersphere(0.5) |> translate([2, 1, 0, 0]) |> rotate(xy, 70deg) |> rotate(yw, -30deg)",
+    "hyperbox(0.3) |> translate([0, 0, 1.5, 0.5]) |> rotate(zw, t * 180deg)",
+    "hypersphere(0.4) |> translate([1, 0.5, 0, 0]) |> symmetry([1, 1, 0, 0])",
+    "hypersphere(0.3) |> tile(grid([1, 0.8, 1.2, 0.9], limit: [2, 1, 2, 3]))",
+    "round(hypersphere(0.2) |> tile(grid(0.7, limit: [1, 2, 0, 1])), 0.1) |> translate([3, 0, 0, 0]) |> rotate(xz, 40deg)",
+];
+
+/// Every shape with a ball (`Shape::bounds`) lies in it: random points around the ball, just
+/// outside it and up to twice its radius, are outside the shape (its reference distance is
+/// positive there), and so are the known surface points of `SHAPES` inside it. Over the
+/// shapes above and every object of 300 generated scenes (tilings, turns, sums of all the
+/// parts, at scales from 1e-3 to 1e4).
+#[test]
+fn every_bounded_shape_lies_in_its_ball() {
+    let mut rng = Pcg64Mcg::seed_from_u64(11);
+    let written = SHAPES
+        .iter()
+        .map(|(s, on)| (format!("object s {{ shape = {s} }}"), *on))
+        .chain(
+            BOUNDED
+                .iter()
+                .map(|s| (format!("object s {{ shape = {s} }}"), &[][..])),
+        );
+    let generated = (1..=300).map(|seed| (hyperslice::generate::generate(seed).source, &[][..]));
+    let mut checked = 0;
+    for (source, surface) in written.chain(generated) {
+        let scene = compile_text(&source);
+        let raw = ir::lower(&scene);
+        for (object, lowered) in scene.objects.iter().zip(&raw.objects) {
+            let Some((c, r)) = object.shape.bounds() else {
+                continue;
+            };
+            let id = lowered.distance;
+            let mut eval = Reference::new(&raw.graph, &[id]);
+            let mut at = |p: [f64; 4], t: f64| {
+                eval.run(&vars(p, [0.0; 4], t));
+                eval.value(id)
+            };
+            let slack = 1e-9 * (r + c.iter().map(|x| x.abs()).sum::<f64>());
+            for p in surface {
+                let d: f64 = (0..4).map(|i| (p[i] - c[i]).powi(2)).sum::<f64>().sqrt();
+                assert!(
+                    d <= r + slack,
+                    "{source}: surface point {p:?} outside its ball {c:?}, {r}"
+                );
+            }
+            for _ in 0..400 {
+                // Most of them close to the sphere, where a ball a little too small shows.
+                let u: f64 = rng.random_range(0.0..1.0);
+                let reach = r * (1.0 + 1e-6 + u * u * u);
+                let v = random_unit(&mut rng);
+                let p = std::array::from_fn(|i| c[i] + v[i] * reach);
+                let t = rng.random_range(0.0..1.0);
+                let d = at(p, t);
+                assert!(
+                    d > -slack,
+                    "{source}: distance {d} at {p:?} (t = {t}), outside its ball {c:?}, {r}"
+                );
+            }
+            checked += 1;
+        }
+    }
+    assert!(checked > 300, "only {checked} bounded objects");
+}
+
 #[test]
 fn every_primitive_and_operation_is_a_distance_bound() {
     let mut rng = Pcg64Mcg::seed_from_u64(5);

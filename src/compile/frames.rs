@@ -86,6 +86,7 @@ impl Frames {
         let (cells, escape) = cells(
             &program.ir,
             &compiled.bounds,
+            &compiled.tiled,
             (camera.position, t),
             self.shot.limits.epsilon,
             build.marcher,
@@ -162,17 +163,23 @@ fn medium(m: &crate::scene::Material) -> Medium {
 }
 
 /// The cells of a frame (for the cells' marcher): a cube around the camera and every bounded
-/// object, twice their extent, so rays near them and on the ground between them use pruned
-/// tapes; and the proof of escape from the box of the bounded objects.
+/// object but the tiled ones, twice their extent, so rays near them and on the ground between
+/// them use pruned tapes; and the proof of escape from the box of the bounded objects.
+/// Bounded tilings (`tiled`, a grid with limits) stay outside the cube, with the unbounded
+/// objects: around a few hundred copies far apart, the cells that resolve the epsilon near
+/// each are so many that a ray passing them took more than 2,000 steps, one per cell.
 fn cells(
     ir: &SceneIr,
     bounds: &[Option<([f64; 4], f64)>],
+    tiled: &[bool],
     (camera, t): (DVec4, f64),
     epsilon: f64,
     marcher: MarcherKind,
 ) -> (Option<Cells>, Escape) {
+    // The escape proof's box, and the cells' cube.
     let (mut lo, mut hi) = (camera, camera);
-    let mut unbounded = vec![];
+    let (mut cube_lo, mut cube_hi) = (camera, camera);
+    let (mut unbounded, mut tilings) = (vec![], vec![]);
     for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
         if o.material.is_air() {
             continue;
@@ -182,6 +189,12 @@ fn cells(
                 let c = DVec4::from_array(*c);
                 lo = lo.min(c - DVec4::splat(*r));
                 hi = hi.max(c + DVec4::splat(*r));
+                if tiled[i] {
+                    tilings.push((i, o.distance));
+                } else {
+                    cube_lo = cube_lo.min(c - DVec4::splat(*r));
+                    cube_hi = cube_hi.max(c + DVec4::splat(*r));
+                }
             }
             _ => unbounded.push((i, o.distance)),
         }
@@ -189,6 +202,7 @@ fn cells(
     let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
     let scene = (ir.distance, ir.nearest);
     let escape = Escape::new(&ir.graph, (lo, hi), &distances, (scene, ir.interior), t);
+    let (lo, hi) = (cube_lo, cube_hi);
     if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
         return (None, escape);
     }
@@ -200,7 +214,7 @@ fn cells(
     let size = 2.0 * (hi - lo).max_element().max(1.0);
     let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
     let cube = (corner, size);
-    let cells = Cells::new(&ir.graph, roots, cube, &unbounded, epsilon);
+    let cells = Cells::new(&ir.graph, roots, cube, (&unbounded, &tilings), epsilon);
     (Some(cells), escape)
 }
 

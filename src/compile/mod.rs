@@ -28,6 +28,9 @@ pub struct Compiled {
     /// Each object's bounding sphere (centre, radius) where the scene gives one for every
     /// frame; `None` for unbounded shapes and ones that move.
     pub bounds: Vec<Option<([f64; 4], f64)>>,
+    /// Whether each object's shape holds a tiling (`Shape::tiled`): a bounded one is in the
+    /// escape proof's box but outside the cells' cube (`frames::cells`).
+    pub tiled: Vec<bool>,
 }
 
 /// Where one spherical light is in one frame.
@@ -62,6 +65,7 @@ impl Compiled {
         Compiled {
             ir: ir::lower(scene),
             bounds: scene.objects.iter().map(|o| o.shape.bounds()).collect(),
+            tiled: scene.objects.iter().map(|o| o.shape.tiled()).collect(),
         }
     }
 

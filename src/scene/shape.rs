@@ -210,6 +210,12 @@ impl Shape {
         (self.kind.children().iter()).fold(own, |d, c| d | c.deps(fields))
     }
 
+    /// Whether the shape repeats some shape on a lattice (`tile`).
+    pub fn tiled(&self) -> bool {
+        matches!(self.kind, ShapeKind::Tile { .. })
+            || self.kind.children().iter().any(|c| c.tiled())
+    }
+
     /// A ball (centre, radius) containing the shape, when its parameters are constants.
     pub fn bounds(&self) -> Option<([f64; 4], f64)> {
         use ShapeKind as S;
@@ -228,8 +234,30 @@ impl Shape {
             S::Duocylinder { radius1, radius2 } => {
                 (o, radius1.constant()?.hypot(radius2.constant()?))
             }
-            S::Halfspace { .. } | S::Custom { .. } | S::Tile { .. } | S::Symmetry { .. } => {
-                return None;
+            S::Halfspace { .. } | S::Custom { .. } => return None,
+            // Every copy lies in the ball about its lattice point `spacing * k`, `|k_i| <=
+            // limit_i`: all of them within the corner copy's reach of the centre one.
+            S::Tile { shape, lattice } => match lattice {
+                Lattice::Grid { spacing, limit } if limit.iter().all(|l| l.is_finite()) => {
+                    let (c, r) = shape.bounds()?;
+                    (
+                        c,
+                        r + length(std::array::from_fn(|i| spacing[i] * limit[i])),
+                    )
+                }
+                _ => return None,
+            },
+            // The kept half and its mirror image: within the shape's ball about its centre
+            // grown by how far the mirror moves that centre.
+            S::Symmetry { shape, normal } => {
+                let (c, r) = shape.bounds()?;
+                let n = normal.constant()?;
+                let nn: f64 = n.iter().map(|x| x * x).sum();
+                if nn == 0.0 {
+                    return None;
+                }
+                let off = (0..4).map(|i| c[i] * n[i]).sum::<f64>().abs() * 2.0 / nn.sqrt();
+                (c, r + off)
             }
             S::Union { shapes, smooth } => {
                 let bs: Vec<_> = shapes.iter().map(|c| c.bounds()).collect::<Option<_>>()?;
@@ -259,12 +287,17 @@ impl Shape {
                 let v = offset.constant()?;
                 (std::array::from_fn(|i| c[i] + v[i]), r)
             }
-            S::Rotate { shape, .. } => {
+            S::Rotate { shape, rotation } => {
                 let (c, r) = shape.bounds()?;
-                if c != o {
-                    return None;
+                let angles: Option<Vec<(Plane, f64)>> = rotation
+                    .iter()
+                    .map(|(p, a)| Some((*p, a.constant()?)))
+                    .collect();
+                match angles {
+                    Some(steps) => (rotate(c, steps), r),
+                    // Turning with `t`: a ball about the origin holds every turn.
+                    None => (o, length(c) + r),
                 }
-                (o, r)
             }
             S::Scale { shape, factor } => {
                 let (c, r) = shape.bounds()?;

@@ -128,6 +128,8 @@ struct Outside {
     all: Cell,
     graph: Graph,
     unbounded: Vec<(usize, Id)>,
+    /// Bounded tilings outside the cube, in every one of these cells.
+    tilings: Vec<(usize, Id)>,
     objects: Vec<Id>,
     needs: Needs,
     origin: DVec4,
@@ -136,23 +138,28 @@ struct Outside {
     subsets: Box<[OnceLock<Cell>]>,
 }
 
+/// An object outside the cube: its index and its distance.
+pub type Placed = (usize, Id);
+
 /// The most unbounded objects whose subsets get cells of their own.
 const SUBSETS: usize = 6;
 
 impl Outside {
     fn new(
         graph: &Graph,
-        unbounded: &[(usize, Id)],
+        (unbounded, tilings): (&[Placed], &[Placed]),
         objects: Vec<Id>,
         needs: Needs,
         origin: DVec4,
     ) -> Outside {
         let n = unbounded.len();
         let subsets = if n <= SUBSETS { 1 << n } else { 0 };
+        let every: Vec<(usize, Id)> = unbounded.iter().chain(tilings).copied().collect();
         Outside {
-            all: outside(graph, unbounded, &objects, needs, origin),
+            all: outside(graph, &every, &objects, needs, origin),
             graph: graph.clone(),
             unbounded: unbounded.to_vec(),
+            tilings: tilings.to_vec(),
             objects,
             needs,
             origin,
@@ -168,6 +175,7 @@ impl Outside {
                 let kept: Vec<(usize, Id)> = (self.unbounded.iter().enumerate())
                     .filter(|(i, _)| keep >> i & 1 == 1)
                     .map(|(_, &u)| u)
+                    .chain(self.tilings.iter().copied())
                     .collect();
                 outside(&self.graph, &kept, &self.objects, self.needs, self.origin)
             }),
@@ -292,13 +300,15 @@ impl Cells {
     /// Cells over the cube of edge `size` at corner `lo`, from the frame's optimised graph.
     /// `scene` is the scene's distance and nearest object, `interior` the interior's, and
     /// `objects` each object's distance. `unbounded` lists (object index, distance) for the
-    /// objects that may reach outside the cube; every other object lies inside it. Near surfaces, cells resolve `epsilon` (the marching
-    /// epsilon) however large the cube.
+    /// objects that may reach outside the cube, as `Escape::escapes` proves rays clear of them
+    /// (its `keep` bits), and `tilings` others outside it that no escape proof clears (bounded
+    /// tilings, in the proof's box instead); every other object lies inside the cube. Near
+    /// surfaces, cells resolve `epsilon` (the marching epsilon) however large the cube.
     pub fn new(
         g: &Graph,
         tapes: Roots,
         (lo, size): (DVec4, f64),
-        unbounded: &[(usize, Id)],
+        (unbounded, tilings): (&[Placed], &[Placed]),
         epsilon: f64,
     ) -> Cells {
         let interior = tapes.interior.is_some();
@@ -315,7 +325,7 @@ impl Cells {
             origin: centre,
         };
         let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, needs);
-        let outside = Outside::new(g, unbounded, tapes.objects, needs, centre);
+        let outside = Outside::new(g, (unbounded, tilings), tapes.objects, needs, centre);
         Cells {
             built: AtomicU64::new(0),
             root,
