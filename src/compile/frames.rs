@@ -14,7 +14,7 @@ use crate::render::march::{Limits, MarcherKind};
 use crate::render::material::{Layout, Medium, Surface};
 use crate::scene::{Param, Scene};
 use crate::vm::cells::{Cells, Roots};
-use crate::vm::escape::Escape;
+use crate::vm::escape::{Escape, proven_box};
 use glam::{DVec3, DVec4};
 
 /// A scene compiled for rendering: what every frame is built from.
@@ -164,10 +164,13 @@ fn medium(m: &crate::scene::Material) -> Medium {
 
 /// The cells of a frame (for the cells' marcher): a cube around the camera and every bounded
 /// object but the tiled ones, twice their extent, so rays near them and on the ground between
-/// them use pruned tapes; and the proof of escape from the box of the bounded objects.
-/// Bounded tilings (`tiled`, a grid with limits) stay outside the cube, with the unbounded
-/// objects: around a few hundred copies far apart, the cells that resolve the epsilon near
-/// each are so many that a ray passing them took more than 2,000 steps, one per cell.
+/// them use pruned tapes; and the proof of escape from the box of the bounded objects. An
+/// object is bounded by its ball (`bounds`) or, without one, by a box interval bounds prove
+/// (`proven_box`: custom fields that are a few spheres). Bounded tilings (`tiled`, a grid with
+/// limits) and objects bounded by intervals stay outside the cube, with the unbounded ones, as
+/// the cells found them before they were bounded: around a few hundred copies far apart, the
+/// cells that resolve the epsilon near each are so many that a ray passing them took more
+/// than 2,000 steps, one per cell.
 fn cells(
     ir: &SceneIr,
     bounds: &[Option<([f64; 4], f64)>],
@@ -179,24 +182,28 @@ fn cells(
     // The escape proof's box, and the cells' cube.
     let (mut lo, mut hi) = (camera, camera);
     let (mut cube_lo, mut cube_hi) = (camera, camera);
-    let (mut unbounded, mut tilings) = (vec![], vec![]);
+    let (mut unbounded, mut wide) = (vec![], vec![]);
     for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
         if o.material.is_air() {
             continue;
         }
-        match b {
+        let ball = match b {
             Some((c, r)) if r.is_finite() && c.iter().all(|x| x.is_finite()) => {
                 let c = DVec4::from_array(*c);
-                lo = lo.min(c - DVec4::splat(*r));
-                hi = hi.max(c + DVec4::splat(*r));
-                if tiled[i] {
-                    tilings.push((i, o.distance));
+                Some((c - DVec4::splat(*r), c + DVec4::splat(*r)))
+            }
+            _ => None,
+        };
+        match ball.or_else(|| proven_box(&ir.graph, o.distance, t)) {
+            Some((l, h)) => {
+                (lo, hi) = (lo.min(l), hi.max(h));
+                if ball.is_some() && !tiled[i] {
+                    (cube_lo, cube_hi) = (cube_lo.min(l), cube_hi.max(h));
                 } else {
-                    cube_lo = cube_lo.min(c - DVec4::splat(*r));
-                    cube_hi = cube_hi.max(c + DVec4::splat(*r));
+                    wide.push((i, o.distance));
                 }
             }
-            _ => unbounded.push((i, o.distance)),
+            None => unbounded.push((i, o.distance)),
         }
     }
     let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
@@ -214,7 +221,7 @@ fn cells(
     let size = 2.0 * (hi - lo).max_element().max(1.0);
     let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
     let cube = (corner, size);
-    let cells = Cells::new(&ir.graph, roots, cube, (&unbounded, &tilings), epsilon);
+    let cells = Cells::new(&ir.graph, roots, cube, (&unbounded, &wide), epsilon);
     (Some(cells), escape)
 }
 

@@ -128,8 +128,8 @@ struct Outside {
     all: Cell,
     graph: Graph,
     unbounded: Vec<(usize, Id)>,
-    /// Bounded tilings outside the cube, in every one of these cells.
-    tilings: Vec<(usize, Id)>,
+    /// Bounded objects outside the cube (`Cells::new`), in every one of these cells.
+    wide: Vec<(usize, Id)>,
     objects: Vec<Id>,
     needs: Needs,
     origin: DVec4,
@@ -147,19 +147,19 @@ const SUBSETS: usize = 6;
 impl Outside {
     fn new(
         graph: &Graph,
-        (unbounded, tilings): (&[Placed], &[Placed]),
+        (unbounded, wide): (&[Placed], &[Placed]),
         objects: Vec<Id>,
         needs: Needs,
         origin: DVec4,
     ) -> Outside {
         let n = unbounded.len();
         let subsets = if n <= SUBSETS { 1 << n } else { 0 };
-        let every: Vec<(usize, Id)> = unbounded.iter().chain(tilings).copied().collect();
+        let every: Vec<(usize, Id)> = unbounded.iter().chain(wide).copied().collect();
         Outside {
             all: outside(graph, &every, &objects, needs, origin),
             graph: graph.clone(),
             unbounded: unbounded.to_vec(),
-            tilings: tilings.to_vec(),
+            wide: wide.to_vec(),
             objects,
             needs,
             origin,
@@ -175,7 +175,7 @@ impl Outside {
                 let kept: Vec<(usize, Id)> = (self.unbounded.iter().enumerate())
                     .filter(|(i, _)| keep >> i & 1 == 1)
                     .map(|(_, &u)| u)
-                    .chain(self.tilings.iter().copied())
+                    .chain(self.wide.iter().copied())
                     .collect();
                 outside(&self.graph, &kept, &self.objects, self.needs, self.origin)
             }),
@@ -301,14 +301,14 @@ impl Cells {
     /// `scene` is the scene's distance and nearest object, `interior` the interior's, and
     /// `objects` each object's distance. `unbounded` lists (object index, distance) for the
     /// objects that may reach outside the cube, as `Escape::escapes` proves rays clear of them
-    /// (its `keep` bits), and `tilings` others outside it that no escape proof clears (bounded
-    /// tilings, in the proof's box instead); every other object lies inside the cube. Near
+    /// (its `keep` bits), and `wide` others outside it that no escape proof clears (bounded
+    /// objects in the proof's box, kept out of the cube); every other object lies inside it. Near
     /// surfaces, cells resolve `epsilon` (the marching epsilon) however large the cube.
     pub fn new(
         g: &Graph,
         tapes: Roots,
         (lo, size): (DVec4, f64),
-        (unbounded, tilings): (&[Placed], &[Placed]),
+        (unbounded, wide): (&[Placed], &[Placed]),
         epsilon: f64,
     ) -> Cells {
         let interior = tapes.interior.is_some();
@@ -325,7 +325,7 @@ impl Cells {
             origin: centre,
         };
         let root = Cell::new(&whole, DVec4::ZERO, cube, 0, usize::MAX, needs);
-        let outside = Outside::new(g, (unbounded, tilings), tapes.objects, needs, centre);
+        let outside = Outside::new(g, (unbounded, wide), tapes.objects, needs, centre);
         Cells {
             built: AtomicU64::new(0),
             root,

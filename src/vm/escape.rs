@@ -225,6 +225,53 @@ pub struct Proofs {
 /// pass over the scene's graph.
 const PIECES: usize = 32;
 
+/// A box holding every point where `id`'s distance (in `g`, at animation time `t`) is at most
+/// zero, where interval bounds prove one: along each axis, on each side, the least reach `x`
+/// (a power of two from `2^-20` to `2^60`, then halved towards the last that failed, `HALVINGS`
+/// times) such that the distance's bounds over the half of space beyond it (`x_i >= x`, or
+/// `x_i <= -x`, the other coordinates anything) are positive. A custom field that is a few
+/// spheres (the distance to the nearest point of a clamped grid) is bounded this way, which
+/// the analysis of shapes cannot see (`Shape::bounds`); a halfspace, a D4 packing or a grid
+/// without limits never is. `None` when some side has no such reach.
+pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
+    let live = g.live(&[id]);
+    let positive_beyond = |axis: usize, side: f64, x: f64| {
+        let beyond = match side > 0.0 {
+            true => I::new(x, f64::INFINITY),
+            false => I::new(f64::NEG_INFINITY, -x),
+        };
+        let vars = |v: Var| match v {
+            Var::T => I::point(t),
+            _ if v.index() == axis => beyond,
+            _ => I::ALL,
+        };
+        Intervals::of(g, &vars, Some(&live)).get(id).lo > 0.0
+    };
+    let (mut lo, mut hi) = (DVec4::ZERO, DVec4::ZERO);
+    for axis in 0..4 {
+        for side in [-1.0, 1.0] {
+            let k = (-20..=60).find(|&k| positive_beyond(axis, side, 2f64.powi(k)))?;
+            // Any reach proven is a proof, so the bisection need not be monotone.
+            let (mut fail, mut reach) = (2f64.powi(k - 1), 2f64.powi(k));
+            for _ in 0..HALVINGS {
+                let mid = (fail + reach) / 2.0;
+                match positive_beyond(axis, side, mid) {
+                    true => reach = mid,
+                    false => fail = mid,
+                }
+            }
+            match side > 0.0 {
+                true => hi[axis] = reach,
+                false => lo[axis] = -reach,
+            }
+        }
+    }
+    Some((lo, hi))
+}
+
+/// The halvings that tighten each side's reach in `proven_box`: to within 1/16 of it.
+const HALVINGS: u32 = 4;
+
 /// Where the ray from `p` along `d` first meets the box `lo..hi`, if it does (slab test,
 /// `t >= 0`; 0 when `p` is inside).
 pub fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
