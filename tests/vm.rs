@@ -570,6 +570,10 @@ fn every_bounded_shape_lies_in_its_ball() {
         let raw = ir::lower(&scene);
         for (object, lowered) in scene.objects.iter().zip(&raw.objects) {
             let Some((c, r)) = object.shape.bounds() else {
+                assert!(
+                    !BOUNDED.iter().any(|b| source.contains(b)),
+                    "{source}: no ball"
+                );
                 continue;
             };
             let id = lowered.distance;
@@ -579,6 +583,15 @@ fn every_bounded_shape_lies_in_its_ball() {
                 eval.value(id)
             };
             let slack = 1e-9 * (r + c.iter().map(|x| x.abs()).sum::<f64>());
+            // A distance bound is at most the distance to the shape, so at the centre at most
+            // the radius: a ball in the wrong place fails here whatever its size.
+            if BOUNDED.iter().any(|b| source.contains(b)) {
+                let d = at(c, 0.5);
+                assert!(
+                    d <= r + slack,
+                    "{source}: distance {d} at its ball's centre {c:?}, radius {r}"
+                );
+            }
             for p in surface {
                 let d: f64 = (0..4).map(|i| (p[i] - c[i]).powi(2)).sum::<f64>().sqrt();
                 assert!(
@@ -613,15 +626,39 @@ fn every_bounded_shape_lies_in_its_ball() {
 fn proven_boxes_hold_their_objects() {
     const GRID: &str = "sdf |p| length(vec4(p.x - (clamp(floor(p.x / 3 + 2), 0, 3) - 1.5) * 3, \
         p.y - 1, p.z - (clamp(floor(p.z / 3 + 2), 0, 3) - 1.5) * 3, p.w)) - 1";
-    let written = [
-        ("sdf |p| length(p - [1, 2, 0, -3]) - 0.5", true),
-        (GRID, true),
-        ("sdf |p| length(p) - 1 - 0.5 * t", true),
-        ("halfspace([0, 1, 0, 0], offset: 0)", false),
-        ("hypersphere(0.5) |> tile(d4(2))", false),
-        ("sdf |p| p.y - 0.5 * floor(p.x)", false),
-    ]
-    .map(|(s, bounded)| (format!("object s {{ shape = {s} }}"), Some(bounded)));
+    // Each field, whether it has a box, and points inside it, which the box must hold.
+    let written: [(&str, bool, &[[f64; 4]]); 7] = [
+        (
+            "sdf |p| length(p - [1, 2, 0, -3]) - 0.5",
+            true,
+            &[[1.0, 2.0, 0.0, -3.0]],
+        ),
+        (
+            GRID,
+            true,
+            &[
+                [-4.5, 1.0, -4.5, 0.0],
+                [4.5, 1.0, 4.5, 0.0],
+                [4.5, 1.9, -4.5, 0.9],
+            ],
+        ),
+        (
+            "sdf |p| length(p) - 1 - 0.5 * t",
+            true,
+            &[[1.2, 0.0, 0.0, 0.0]],
+        ),
+        ("halfspace([0, 1, 0, 0], offset: 0)", false, &[]),
+        ("hypersphere(0.5) |> tile(d4(2))", false, &[]),
+        ("sdf |p| p.y - 0.5 * floor(p.x)", false, &[]),
+        // Bounds of `log` over all of space are NaN below, which a `min` would drop.
+        ("sdf |p| min(log(p.y), length(p) - 1)", false, &[]),
+    ];
+    let written = written.map(|(s, bounded, inside)| {
+        (
+            format!("object s {{ shape = {s} }}"),
+            Some((bounded, inside)),
+        )
+    });
     let generated = (1..=300).map(|seed| (hyperslice::generate::generate(seed).source, None));
     let mut rng = Pcg64Mcg::seed_from_u64(12);
     let mut checked = 0;
@@ -636,12 +673,18 @@ fn proven_boxes_hold_their_objects() {
             }
             let found =
                 vm::escape::proven_box(&program.ir.graph, program.ir.objects[i].distance, t);
-            if let Some(bounded) = expect {
+            if let Some((bounded, _)) = expect {
                 assert_eq!(found.is_some(), bounded, "{source}: {found:?}");
             }
             let Some((lo, hi)) = found else {
                 continue;
             };
+            for p in expect.map_or(&[][..], |e| e.1) {
+                assert!(
+                    (0..4).all(|a| lo[a] <= p[a] && p[a] <= hi[a]),
+                    "{source}: {p:?} outside {lo} .. {hi}"
+                );
+            }
             let id = raw.objects[i].distance;
             let mut eval = Reference::new(&raw.graph, &[id]);
             let size = (hi - lo).max_element();

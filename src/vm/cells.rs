@@ -11,8 +11,10 @@
 //! their local coordinates (`PRECISE_EDGE`), and their tapes are compiled from forms without
 //! the cancellation of large constants (`ir::precise`), so a hypersphere of radius 1e5 or a
 //! scene far from the origin is met to the epsilon, not to the rounding of its size.
-//! Points outside the cube use the unbounded objects only (the others lie inside it), in
-//! coordinates local to its centre, and a ray there drops those it provably never meets.
+//! Points outside the cube use the objects that may reach outside it only (the unbounded
+//! ones, and bounded ones the cube leaves out: tilings, fields bounded by intervals), in
+//! coordinates local to its centre, and a ray there drops the unbounded ones it provably never
+//! meets.
 
 use super::Tape;
 use super::escape::entry;
@@ -116,14 +118,15 @@ pub struct Cells {
     /// lazy tree costs, for tests and measurements.
     built: AtomicU64,
     root: Cell,
-    /// Points outside the cube: the scene without the bounded objects, which all lie inside
-    /// it. A step from such a point may go no further than to the cube.
+    /// Points outside the cube: the scene without the objects that lie inside it. A step from
+    /// such a point may go no further than to the cube.
     outside: Outside,
 }
 
-/// The cells outside the cube: one of every unbounded object, and one of each subset of
-/// them, built when a ray first proves it meets no other (`Escape::escapes`): a ray grazing a
-/// floor past a custom field meets the floor exactly once the field is out of its way.
+/// The cells outside the cube: one of every object outside it, and one of each subset of the
+/// unbounded ones (with all the `wide` ones), built when a ray first proves it meets no other
+/// (`Escape::escapes`): a ray grazing a floor past a custom field meets the floor exactly once
+/// the field is out of its way.
 struct Outside {
     all: Cell,
     graph: Graph,

@@ -9,8 +9,9 @@ use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
 use glam::DVec4;
 
-/// The box `lo..hi` holds every bounded object, and `roots` are the distances of the unbounded
-/// ones (halfspaces, tilings, custom fields). `whole` holds the scene's distance and, where
+/// The box `lo..hi` holds every bounded object (by its ball, or a box `proven_box` found), and
+/// `roots` are the distances of the unbounded ones (halfspaces, D4 packings, grids without
+/// limits, custom fields without a proven box). `whole` holds the scene's distance and, where
 /// objects can be entered, its interior distance (`distances`).
 pub struct Escape {
     lo: DVec4,
@@ -233,8 +234,16 @@ const PIECES: usize = 32;
 /// spheres (the distance to the nearest point of a clamped grid) is bounded this way, which
 /// the analysis of shapes cannot see (`Shape::bounds`); a halfspace, a D4 packing or a grid
 /// without limits never is. `None` when some side has no such reach.
+///
+/// A pass proves nothing where any node's bounds came out NaN (a logarithm or an arcsine over
+/// a range past its domain): the bounds' `min` and `max` drop a NaN operand, which over all
+/// of space would make `min(log(y), |p| - 1)` look positive beyond `|x| = 1` though the slab
+/// `0 < y < 1` is solid everywhere.
 pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
-    let live = g.live(&[id]);
+    // The object's own nodes only: a pass over the whole scene's graph for each object would
+    // grow with the square of the objects.
+    let (cone, at) = g.compact(&[id]);
+    let root = at[id.0 as usize];
     let positive_beyond = |axis: usize, side: f64, x: f64| {
         let beyond = match side > 0.0 {
             true => I::new(x, f64::INFINITY),
@@ -245,12 +254,21 @@ pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
             _ if v.index() == axis => beyond,
             _ => I::ALL,
         };
-        Intervals::of(g, &vars, Some(&live)).get(id).lo > 0.0
+        let iv = Intervals::of(&cone, &vars, None);
+        let known = (0..cone.len()).all(|i| {
+            let b = iv.get(Id(i as u32));
+            !b.lo.is_nan() && !b.hi.is_nan()
+        });
+        known && iv.get(root).lo > 0.0
     };
     let (mut lo, mut hi) = (DVec4::ZERO, DVec4::ZERO);
     for axis in 0..4 {
         for side in [-1.0, 1.0] {
-            let k = (-20..=60).find(|&k| positive_beyond(axis, side, 2f64.powi(k)))?;
+            // The farthest reach first: an unbounded object fails it, and costs one pass.
+            if !positive_beyond(axis, side, 2f64.powi(MAX_POWER)) {
+                return None;
+            }
+            let k = (-20..=MAX_POWER).find(|&k| positive_beyond(axis, side, 2f64.powi(k)))?;
             // Any reach proven is a proof, so the bisection need not be monotone.
             let (mut fail, mut reach) = (2f64.powi(k - 1), 2f64.powi(k));
             for _ in 0..HALVINGS {
@@ -268,6 +286,9 @@ pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
     }
     Some((lo, hi))
 }
+
+/// The largest reach `proven_box` tries, `2^60`.
+const MAX_POWER: i32 = 60;
 
 /// The halvings that tighten each side's reach in `proven_box`: to within 1/16 of it.
 const HALVINGS: u32 = 4;
