@@ -607,6 +607,13 @@ impl Intervals {
         }
     }
 
+    /// Whether no node's bounds came out NaN ("nothing known": a logarithm or an arcsine over
+    /// a range past its domain). Where one did, bounds built on it may be too tight: `min` and
+    /// `max` drop a NaN operand, so proofs read from them prove nothing.
+    pub fn known(&self) -> bool {
+        self.vals.iter().all(|b| !b.lo.is_nan() && !b.hi.is_nan())
+    }
+
     pub fn get(&self, id: Id) -> I {
         self.vals[id.0 as usize]
     }

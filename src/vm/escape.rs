@@ -121,7 +121,10 @@ impl Escape {
         let (p, d) = (p.to_array(), d.to_array());
         let iv = Intervals::along(&mut proofs.along, &self.whole, p, d, len);
         proofs.bounded += self.whole.len() as u64;
-        (iv.get(root), iv.get(near))
+        match iv.known() {
+            true => (iv.get(root), iv.get(near)),
+            false => (I::ALL, I::ALL),
+        }
     }
 
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
@@ -131,7 +134,8 @@ impl Escape {
     /// all along means the ray has crossed that surface (by a rounding, at a cell's side),
     /// and it meets it where it is. `keep` holds the unbounded objects the ray may still
     /// meet (bit `i`: the `i`th); once the ray is past the box, those proven out of its way
-    /// leave it. `proofs` holds the bounds' buffers and counts the nodes bounded.
+    /// leave it. A pass where some node's bounds came out NaN proves nothing
+    /// (`Intervals::known`). `proofs` holds the bounds' buffers and counts the nodes bounded.
     pub fn escapes(
         &self,
         p: DVec4,
@@ -155,6 +159,9 @@ impl Escape {
             let (p, d) = (p.to_array(), d.to_array());
             let iv = Intervals::along(&mut proofs.along, &self.graph, p, d, f64::INFINITY);
             proofs.bounded += self.graph.len() as u64;
+            if !iv.known() {
+                return false;
+            }
             for (i, r) in self.roots.iter().enumerate() {
                 let x = iv.get(*r);
                 let clear = if interior {
@@ -255,11 +262,7 @@ pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
             _ => I::ALL,
         };
         let iv = Intervals::of(&cone, &vars, None);
-        let known = (0..cone.len()).all(|i| {
-            let b = iv.get(Id(i as u32));
-            !b.lo.is_nan() && !b.hi.is_nan()
-        });
-        known && iv.get(root).lo > 0.0
+        iv.known() && iv.get(root).lo > 0.0
     };
     let (mut lo, mut hi) = (DVec4::ZERO, DVec4::ZERO);
     for axis in 0..4 {
@@ -336,6 +339,20 @@ mod tests {
             .map(|(i, s)| format!("object o{i} {{ shape = {s}\n material = diffuse(0.5) }}\n"))
             .collect();
         format!("camera {{ from = [0, 0, -6, 0]\n to = [0, 0, 0, 0] }}\n{objects}")
+    }
+
+    /// Bounds that turn NaN prove nothing: a ray falling through the slab `0 < y <= 1` of
+    /// `min(log(y), |p| - 1)` from far beside the ball is not proven clear (the `min` of the
+    /// logarithm's NaN bound and the ball's positive one read as positive), nor is a stretch
+    /// across the slab, while a ray rising away from both is.
+    #[test]
+    fn bounds_that_turn_nan_prove_nothing() {
+        let e = escape_of(&scene(&["sdf |p| min(log(p.y), length(p) - 1)"]));
+        let mut proofs = Proofs::default();
+        let (far, down, up) = (DVec4::new(10.0, 5.0, 0.0, 0.0), -DVec4::Y, DVec4::Y);
+        assert!(!e.escapes(far, down, false, &mut e.unbounded(), &mut proofs));
+        assert_eq!(e.clear(far, down, 10.0, false, &mut proofs), 0.0);
+        assert!(e.escapes(far, up, false, &mut e.unbounded(), &mut proofs));
     }
 
     /// The proofs skipped (`never_clears`) are only ones that would have failed: on random
