@@ -1415,3 +1415,63 @@ fn hsv_of_a_field_colours_each_point() {
     assert_ne!(seen[0], seen[1], "red at w = 0, green at w = 1/3");
     assert!((seen[0][0] - 0.9).abs() < 1e-12 && (seen[0][1] - 0.36).abs() < 1e-12);
 }
+
+/// A cell's lower bound of the distance holds at every point of it where the distance is
+/// defined, also in fields that leave a function's domain (a logarithm, an arcsine, an
+/// arccosine past it): bounds there are the whole line, not NaN, which a `min` would drop.
+/// With NaN bounds, `min(log(y + 0.5), |p| - 1)` got the lower bound -1 over cells where the
+/// slab's distance reaches -3.3.
+#[test]
+fn cell_bounds_hold_where_fields_leave_their_domain() {
+    use glam::DVec4;
+    use hyperslice::compile::Frames;
+    use hyperslice::render::frame::Build;
+    use hyperslice::render::march::MarcherKind;
+    let fields = [
+        "sdf |p| min(log(p.y + 0.5), length(p) - 1)",
+        "sdf |p| min(asin(p.y) / 1rad - 0.3, length(p - [2, 0, 0, 0]) - 0.5)",
+        "sdf |p| max(acos(p.x * 0.5) / 1rad - 1, length(p) - 2)",
+        "sdf |p| min(log(p.x * p.y), p.z + 1)",
+    ];
+    let mut rng = Pcg64Mcg::seed_from_u64(23);
+    let (mut checked, mut undefined) = (0, 0);
+    for field in fields {
+        for beside in [
+            "",
+            "object ball { shape = hypersphere(0.5) |> translate([3, 1, 0, 0])\n material = diffuse(0.5) }\n",
+        ] {
+            let src = format!(
+                "camera {{ from = [0, 0, -6, 0]\n to = [0, 0, 0, 0] }}\n\
+                 object o {{ shape = {field}\n material = diffuse(0.5) }}\n{beside}"
+            );
+            let scene = compile_text(&src);
+            let fs = Frames::new(&scene).at(0.0, Build::marcher(MarcherKind::Cells));
+            let mut one = Regs::<f32, 1>::new(&fs.scene);
+            let cells = fs.cells.as_ref().expect("cells");
+            for _ in 0..3000 {
+                let p = DVec4::from_array(random_point(&mut rng, 4.0));
+                let whole = vm::eval_point(&fs.scene, &mut one, to32(p.to_array()), [0.0; 4], 0.0);
+                let d = whole[0] as f64;
+                if !d.is_finite() {
+                    undefined += 1;
+                    continue;
+                }
+                let cell = cells.find(p);
+                let tol = 2e-5 * (1.0 + d.abs() + p.abs().max_element());
+                assert!(
+                    cell.lower[0] <= d + tol,
+                    "{src}: lower bound {} over the cell at {:?} (edge {}), distance {d} at {p:?}",
+                    cell.lower[0],
+                    cell.lo,
+                    cell.size
+                );
+                checked += 1;
+            }
+        }
+    }
+    // The fields must be undefined somewhere, and checked mostly where they are not.
+    assert!(
+        undefined > 1000 && checked > 10_000,
+        "{undefined} {checked}"
+    );
+}

@@ -7,7 +7,12 @@
 use super::{Bin, Graph, Id, Node, Un, Var};
 use crate::math::kernel as k;
 
-/// A closed interval `lo..=hi`; a NaN bound means nothing is known.
+/// A closed interval `lo..=hi`. No node's bounds are ever NaN (`Intervals`): where they would
+/// be (a logarithm or an arcsine over a range past its domain, `inf - inf`), nothing is known
+/// and they are the whole line (`I::known`). A NaN bound would not be conservative: `min` and
+/// `max` (`f64::min`) drop a NaN operand, so `min(log(y), |p| - 1)` beside the ball would read
+/// as positive though the slab `0 < y <= 1` is solid, and a proof or a pruning decision read
+/// from it would be wrong.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct I {
     pub lo: f64,
@@ -26,10 +31,22 @@ impl I {
     pub fn point(x: f64) -> I {
         I { lo: x, hi: x }
     }
-    pub fn contains(self, x: f64) -> bool {
-        (self.lo <= x && x <= self.hi) || x.is_nan() || self.lo.is_nan() || self.hi.is_nan()
+    /// These bounds, or the whole line where either is NaN (nothing is known). Applied to each
+    /// node's bounds as they are stored, not in every operation: within one node's operations
+    /// NaN only passes on (`mul` turns a NaN product into the whole line), and a check in
+    /// `I::new` made escape proofs 6-8% slower.
+    fn known(self) -> I {
+        if self.lo.is_nan() || self.hi.is_nan() {
+            I::ALL
+        } else {
+            self
+        }
     }
-    /// Whether every value is nonzero (a NaN bound decides nothing).
+    /// Whether `x` is in the interval; a NaN value (the evaluators' "undefined") is in every one.
+    pub fn contains(self, x: f64) -> bool {
+        (self.lo <= x && x <= self.hi) || x.is_nan()
+    }
+    /// Whether every value is nonzero.
     pub fn excludes_zero(self) -> bool {
         self.lo > 0.0 || self.hi < 0.0
     }
@@ -552,7 +569,7 @@ impl Intervals {
                 tuple_start[i] = tuples.len() as u32;
                 tuples.extend_from_slice(&exact[..n.arity()]);
                 iv.outs
-                    .extend(exact[..n.arity()].iter().map(|l| l.range(len)));
+                    .extend(exact[..n.arity()].iter().map(|l| l.range(len).known()));
                 iv.vals.push(I::ALL);
                 iv.start.push(outs as u32);
                 lines.push(Line::point(f64::NAN));
@@ -569,7 +586,7 @@ impl Intervals {
                     slope: 0.0,
                 },
             };
-            iv.vals.push(l.range(len));
+            iv.vals.push(l.range(len).known());
             iv.start.push(if iv.outs.len() > outs {
                 outs as u32
             } else {
@@ -594,7 +611,7 @@ impl Intervals {
         for i in self.vals.len()..g.len() {
             let outs = self.outs.len();
             let v = if live.is_none_or(|l| l[i]) {
-                self.node(g.get(Id(i as u32)), vars)
+                self.node(g.get(Id(i as u32)), vars).known()
             } else {
                 I::ALL
             };
@@ -605,13 +622,6 @@ impl Intervals {
                 u32::MAX
             });
         }
-    }
-
-    /// Whether no node's bounds came out NaN ("nothing known": a logarithm or an arcsine over
-    /// a range past its domain). Where one did, bounds built on it may be too tight: `min` and
-    /// `max` drop a NaN operand, so proofs read from them prove nothing.
-    pub fn known(&self) -> bool {
-        self.vals.iter().all(|b| !b.lo.is_nan() && !b.hi.is_nan())
     }
 
     pub fn get(&self, id: Id) -> I {
@@ -716,11 +726,11 @@ impl Intervals {
                     Some(false) => best_id,
                     None => best_id.union(I::point(id.get())),
                 };
-                self.outs.extend([best.min(d), id]);
+                self.outs.extend([best.min(d).known(), id.known()]);
                 return I::ALL;
             }
         };
-        self.outs.extend(tuple);
+        self.outs.extend(tuple.into_iter().map(I::known));
         I::ALL
     }
 }

@@ -67,7 +67,8 @@ pub struct Cell {
     /// The 16 children, each built when a ray first reaches it; none when the cell is not
     /// split.
     children: Box<[OnceLock<Box<Cell>>]>,
-    /// Lower bounds over the cell of the scene's distance and the interior's (NaN: unknown).
+    /// Lower bounds over the cell of the scene's distance and the interior's (minus infinity
+    /// where unknown).
     pub lower: [f64; 2],
     /// The scene distance as the smallest of a few planes and spheres in local coordinates,
     /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a

@@ -121,10 +121,7 @@ impl Escape {
         let (p, d) = (p.to_array(), d.to_array());
         let iv = Intervals::along(&mut proofs.along, &self.whole, p, d, len);
         proofs.bounded += self.whole.len() as u64;
-        match iv.known() {
-            true => (iv.get(root), iv.get(near)),
-            false => (I::ALL, I::ALL),
-        }
+        (iv.get(root), iv.get(near))
     }
 
     /// Whether the ray from `p` along `d` provably meets no surface: it never enters the box
@@ -134,8 +131,7 @@ impl Escape {
     /// all along means the ray has crossed that surface (by a rounding, at a cell's side),
     /// and it meets it where it is. `keep` holds the unbounded objects the ray may still
     /// meet (bit `i`: the `i`th); once the ray is past the box, those proven out of its way
-    /// leave it. A pass where some node's bounds came out NaN proves nothing
-    /// (`Intervals::known`). `proofs` holds the bounds' buffers and counts the nodes bounded.
+    /// leave it. `proofs` holds the bounds' buffers and counts the nodes bounded.
     pub fn escapes(
         &self,
         p: DVec4,
@@ -159,9 +155,6 @@ impl Escape {
             let (p, d) = (p.to_array(), d.to_array());
             let iv = Intervals::along(&mut proofs.along, &self.graph, p, d, f64::INFINITY);
             proofs.bounded += self.graph.len() as u64;
-            if !iv.known() {
-                return false;
-            }
             for (i, r) in self.roots.iter().enumerate() {
                 let x = iv.get(*r);
                 let clear = if interior {
@@ -242,10 +235,8 @@ const PIECES: usize = 32;
 /// the analysis of shapes cannot see (`Shape::bounds`); a halfspace, a D4 packing or a grid
 /// without limits never is. `None` when some side has no such reach.
 ///
-/// A pass proves nothing where any node's bounds came out NaN (a logarithm or an arcsine over
-/// a range past its domain): the bounds' `min` and `max` drop a NaN operand, which over all
-/// of space would make `min(log(y), |p| - 1)` look positive beyond `|x| = 1` though the slab
-/// `0 < y < 1` is solid everywhere.
+/// Bounds past a function's domain are the whole line (`I::new`), so `min(log(y), |p| - 1)`,
+/// whose slab `0 < y <= 1` is solid for every `x`, gets no box.
 pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
     // The object's own nodes only: a pass over the whole scene's graph for each object would
     // grow with the square of the objects.
@@ -262,7 +253,7 @@ pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
             _ => I::ALL,
         };
         let iv = Intervals::of(&cone, &vars, None);
-        iv.known() && iv.get(root).lo > 0.0
+        iv.get(root).lo > 0.0
     };
     let (mut lo, mut hi) = (DVec4::ZERO, DVec4::ZERO);
     for axis in 0..4 {
@@ -341,10 +332,10 @@ mod tests {
         format!("camera {{ from = [0, 0, -6, 0]\n to = [0, 0, 0, 0] }}\n{objects}")
     }
 
-    /// Bounds that turn NaN prove nothing: a ray falling through the slab `0 < y <= 1` of
-    /// `min(log(y), |p| - 1)` from far beside the ball is not proven clear (the `min` of the
-    /// logarithm's NaN bound and the ball's positive one read as positive), nor is a stretch
-    /// across the slab, while a ray rising away from both is.
+    /// Bounds past a function's domain prove nothing: a ray falling through the slab
+    /// `0 < y <= 1` of `min(log(y), |p| - 1)` from far beside the ball is not proven clear (a
+    /// NaN bound of the logarithm would drop out of the `min`, leaving the ball's positive
+    /// one), nor is a stretch across the slab, while a ray rising away from both is.
     #[test]
     fn bounds_that_turn_nan_prove_nothing() {
         let e = escape_of(&scene(&["sdf |p| min(log(p.y), length(p) - 1)"]));
