@@ -291,14 +291,14 @@ impl Line {
 
 /// The linear form of node `n` along the ray from `o` along `d` for `s` in `0..=len`, where it
 /// has one.
-fn line(n: Node, f: &[Line], o: [f64; 4], d: [f64; 4], len: f64) -> Option<Line> {
+fn line(n: &Node, f: &[Line], o: [f64; 4], d: [f64; 4], len: f64) -> Option<Line> {
     let g = |x: Id| f[x.0 as usize];
     let row = |v: [Id; 4], r: [super::K; 5]| {
         (0..4).fold(Line::point(r[4].get()), |acc, i| {
             acc.add(g(v[i]).scale(r[i].get()))
         })
     };
-    Some(match n {
+    Some(match *n {
         Node::Var(v) if v.index() < 4 => Line {
             base: I::point(o[v.index()]),
             slope: d[v.index()],
@@ -358,14 +358,17 @@ const SIDE: f64 = 1e-9;
 /// points and both ends of the stretch fall in the cell of its midpoint (to within `SIDE`): the
 /// cells are convex, so the whole stretch is in it, and the offset from its centre is the
 /// operand less a constant.
-fn cell(n: Node, f: &[Line], len: f64) -> Option<[Line; 8]> {
+fn cell(n: &Node, f: &[Line], len: f64) -> Option<[Line; 8]> {
+    if !matches!(n, Node::D4(_) | Node::Rep(..)) {
+        return None;
+    }
     let g = |x: Id| f[x.0 as usize];
     let ends = |l: Line| {
         (l.base.is_point() && l.slope.is_finite() && len.is_finite())
             .then_some((l.base.lo, l.base.lo + l.slope * len))
     };
     let mut out = [Line::point(0.0); 8];
-    match n {
+    match *n {
         Node::D4(v) => {
             let v = v.map(g);
             let e: [(f64, f64); 4] = [ends(v[0])?, ends(v[1])?, ends(v[2])?, ends(v[3])?];
@@ -554,11 +557,10 @@ impl Intervals {
         lines.clear();
         tuples.clear();
         tuple_start.clear();
-        for i in 0..g.len() {
-            let n = g.get(Id(i as u32));
+        for (i, n) in g.nodes().iter().enumerate() {
             let outs = iv.outs.len();
             // A projection of a tuple followed exactly is its output's line.
-            let l = match n {
+            let l = match *n {
                 Node::Proj(t, j) if tuple_start[t.0 as usize] != u32::MAX => {
                     Some(tuples[tuple_start[t.0 as usize] as usize + j as usize])
                 }
@@ -578,10 +580,10 @@ impl Intervals {
             let l = match l {
                 Some(l) => l,
                 None => Line {
-                    base: match n {
+                    base: match *n {
                         Node::Length(v, r) => sphere(v.map(|x| lines[x.0 as usize]), r, len)
-                            .unwrap_or_else(|| iv.node(n, &vars)),
-                        _ => iv.node(n, &vars),
+                            .unwrap_or_else(|| iv.node(*n, &vars)),
+                        _ => iv.node(*n, &vars),
                     },
                     slope: 0.0,
                 },

@@ -219,6 +219,11 @@ impl Graph {
         self.nodes[id.0 as usize]
     }
 
+    /// Every node, in id order (children before parents).
+    pub fn nodes(&self) -> &[Node] {
+        &self.nodes
+    }
+
     pub fn len(&self) -> usize {
         self.nodes.len()
     }
