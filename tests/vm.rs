@@ -1432,6 +1432,7 @@ fn cell_bounds_hold_where_fields_leave_their_domain() {
         "sdf |p| min(asin(p.y) / 1rad - 0.3, length(p - [2, 0, 0, 0]) - 0.5)",
         "sdf |p| max(acos(p.x * 0.5) / 1rad - 1, length(p) - 2)",
         "sdf |p| min(log(p.x * p.y), p.z + 1)",
+        "sdf |p| max(length(p) - 2, sqrt(p.y) + 0.1)",
     ];
     let mut rng = Pcg64Mcg::seed_from_u64(23);
     let (mut checked, mut undefined) = (0, 0);

@@ -32,9 +32,11 @@ impl I {
         I { lo: x, hi: x }
     }
     /// These bounds, or the whole line where either is NaN (nothing is known). Applied to each
-    /// node's bounds as they are stored, not in every operation: within one node's operations
-    /// NaN only passes on (`mul` turns a NaN product into the whole line), and a check in
-    /// `I::new` made escape proofs 6-8% slower.
+    /// node's bounds (and each line along a ray, `Line::known`) as they are stored, not in
+    /// every operation: a check in `I::new` made escape proofs 6-8% slower. Within one node's
+    /// operations a NaN drops out only where an operand is infinite, and only where the
+    /// result stays sound (a grid's offset within half a cell); `mul` turns a NaN product into
+    /// the whole line.
     fn known(self) -> I {
         if self.lo.is_nan() || self.hi.is_nan() {
             I::ALL
@@ -117,7 +119,9 @@ fn un(op: Un, a: I) -> I {
     match op {
         Un::Neg => a.neg(),
         Un::Abs => a.abs(),
-        Un::Sqrt => I::new(a.lo.max(0.0).sqrt(), a.hi.max(0.0).sqrt()),
+        // NaN below zero, which a `min` or `max` would drop: nothing is known there.
+        Un::Sqrt if a.lo < 0.0 => I::ALL,
+        Un::Sqrt => I::new(a.lo.sqrt(), a.hi.sqrt()),
         Un::Floor => a.up(f64::floor),
         Un::Ceil => a.up(f64::ceil),
         Un::Round => a.up(k::round),
@@ -249,6 +253,19 @@ impl Line {
         Line {
             base: I::point(x),
             slope: 0.0,
+        }
+    }
+    /// This line, or a constant of unknown value where its base or slope is NaN: a parent
+    /// reads its operands' lines (`line`, `pick`), and a NaN there would drop out of a
+    /// comparison as the bounds' `min` and `max` drop it (`I::known`).
+    fn known(self) -> Line {
+        if self.base.lo.is_nan() || self.base.hi.is_nan() || self.slope.is_nan() {
+            Line {
+                base: I::ALL,
+                slope: 0.0,
+            }
+        } else {
+            self
         }
     }
     /// Every value over `0..=len`.
@@ -569,9 +586,9 @@ impl Intervals {
             tuple_start.push(u32::MAX);
             if let Some(exact) = cell(n, lines, len) {
                 tuple_start[i] = tuples.len() as u32;
-                tuples.extend_from_slice(&exact[..n.arity()]);
+                tuples.extend(exact[..n.arity()].iter().map(|l| l.known()));
                 iv.outs
-                    .extend(exact[..n.arity()].iter().map(|l| l.range(len).known()));
+                    .extend(exact[..n.arity()].iter().map(|l| l.known().range(len)));
                 iv.vals.push(I::ALL);
                 iv.start.push(outs as u32);
                 lines.push(Line::point(f64::NAN));
@@ -587,7 +604,8 @@ impl Intervals {
                     },
                     slope: 0.0,
                 },
-            };
+            }
+            .known();
             iv.vals.push(l.range(len).known());
             iv.start.push(if iv.outs.len() > outs {
                 outs as u32
@@ -645,6 +663,8 @@ impl Intervals {
             Node::Var(v) => return vars(v),
             Node::Const(c) => return I::point(c.get()),
             Node::Un(op, a) => return un(op, g(a)),
+            // A number times itself is a square, never negative (`sqrt(x * x + y * y)`).
+            Node::Bin(Bin::Mul, a, b) if a == b => return g(a).square(),
             Node::Bin(op, a, b) => return bin(op, g(a), g(b)),
             Node::Proj(t, i) => {
                 let start = self.start[t.0 as usize];
@@ -728,7 +748,7 @@ impl Intervals {
                     Some(false) => best_id,
                     None => best_id.union(I::point(id.get())),
                 };
-                self.outs.extend([best.min(d).known(), id.known()]);
+                self.outs.extend([best.min(d), id]);
                 return I::ALL;
             }
         };

@@ -235,7 +235,7 @@ const PIECES: usize = 32;
 /// the analysis of shapes cannot see (`Shape::bounds`); a halfspace, a D4 packing or a grid
 /// without limits never is. `None` when some side has no such reach.
 ///
-/// Bounds past a function's domain are the whole line (`I::new`), so `min(log(y), |p| - 1)`,
+/// Bounds past a function's domain are the whole line (`I::known`), so `min(log(y), |p| - 1)`,
 /// whose slab `0 < y <= 1` is solid for every `x`, gets no box.
 pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
     // The object's own nodes only: a pass over the whole scene's graph for each object would
@@ -344,6 +344,28 @@ mod tests {
         assert!(!e.escapes(far, down, false, &mut e.unbounded(), &mut proofs));
         assert_eq!(e.clear(far, down, 10.0, false, &mut proofs), 0.0);
         assert!(e.escapes(far, up, false, &mut e.unbounded(), &mut proofs));
+        // A line along the ray with a NaN end is read by its parent too: the arcsine past 1
+        // (where the kernel's `max` keeps `x - 10`, solid) must not let the `max` pick it and
+        // the `min` then pick the other operand's line.
+        let (o, d) = (
+            DVec4::new(0.0, 0.5, -3.0, 0.0),
+            DVec4::new(0.0, 0.3, 1.0, 0.0),
+        );
+        let d = d.normalize();
+        let arcsine = "max(p.x - 10, asin(p.y) / 1rad + 5)";
+        let e = escape_of(&scene(&[&format!("sdf |p| min({arcsine}, length(p) - 1)")]));
+        assert!(e.clear(o, d, 5.0, false, &mut proofs) < 1.7);
+        let e = escape_of(&scene(&[&format!("sdf |p| min({arcsine}, p.x + 1)")]));
+        assert!(!e.escapes(o, d, false, &mut e.unbounded(), &mut proofs));
+        // A square root below zero is NaN too: this field is solid for y < 0.
+        let e = escape_of(&scene(&["sdf |p| max(length(p) - 2, sqrt(p.y) + 0.1)"]));
+        let (o, d) = (
+            DVec4::new(0.0, -0.5, -5.0, 0.0),
+            DVec4::new(0.0, -0.1, 1.0, 0.0),
+        );
+        let d = d.normalize();
+        assert!(!e.escapes(o, d, false, &mut e.unbounded(), &mut proofs));
+        assert!(e.clear(o, d, 10.0, false, &mut proofs) < 4.0);
     }
 
     /// The proofs skipped (`never_clears`) are only ones that would have failed: on random
