@@ -585,10 +585,12 @@ impl Intervals {
             };
             tuple_start.push(u32::MAX);
             if let Some(exact) = cell(n, lines, len) {
+                let exact = exact.map(Line::known);
                 tuple_start[i] = tuples.len() as u32;
-                tuples.extend(exact[..n.arity()].iter().map(|l| l.known()));
+                tuples.extend_from_slice(&exact[..n.arity()]);
+                // A line's range may still meet `inf - inf` at an infinite `len`.
                 iv.outs
-                    .extend(exact[..n.arity()].iter().map(|l| l.known().range(len)));
+                    .extend(exact[..n.arity()].iter().map(|l| l.range(len).known()));
                 iv.vals.push(I::ALL);
                 iv.start.push(outs as u32);
                 lines.push(Line::point(f64::NAN));
