@@ -1144,7 +1144,8 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
         if at(0.0) <= 1e-6 {
             continue;
         }
-        let end = form.first(p, d);
+        let (end, clear) = form.first(p, d, 50.0);
+        assert_eq!(clear, f64::INFINITY, "{form:?}");
         let until = end.unwrap_or(50.0);
         for k in 0..200 {
             let t = until * k as f64 / 200.0;
@@ -1167,6 +1168,94 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
         }
     }
     assert!(met > 300 && missed > 300, "{met} met, {missed} missed");
+}
+
+/// A ball tiled over a lattice (D4 or a grid with limits; moved in its cell, turned, moved,
+/// rounded, larger than its cell) is a piece that rays meet exactly (`ir::exact::Tiled`): its
+/// value is the reference distance, and a ray meets it where the reference distance first
+/// reaches zero (or, past a cell's face, is below it: a ball larger than its cell is cut
+/// there), and nowhere before. Where it meets none, it is clear as far as it says, and that
+/// is at least as far as it was asked on stretches shorter than its cells' crossing limit.
+#[test]
+fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
+    use hyperslice::ir::exact::{Form, pieces};
+    let mut rng = Pcg64Mcg::seed_from_u64(33);
+    let (mut met, mut missed) = (0, 0);
+    for (shape, cut) in [
+        ("hypersphere(0.6) |> tile(d4(scale: 1))", false),
+        (
+            "hypersphere(0.3) |> translate([0.1, -0.2, 0.05, 0]) |> tile(d4(scale: 2)) \
+             |> rotate(xz, 30deg) |> translate([3, 1, -2, 0.5])",
+            false,
+        ),
+        ("hypersphere(0.35) |> round(0.1) |> tile(d4(0.5))", false),
+        ("hypersphere(0.9) |> tile(d4(1))", true),
+        (
+            "hypersphere(0.4) |> tile(grid(spacing: [1, 1.5, 2, 1], limit: [2, 3, 1, 0])) \
+             |> rotate(yw, 20deg)",
+            false,
+        ),
+        (
+            "hypersphere(0.7) |> tile(grid(spacing: 1, limit: [3, 3, 3, 3]))",
+            true,
+        ),
+    ] {
+        let scene = compile_text(&format!("object s {{ shape = {shape} }}"));
+        let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
+        let g = &program.ir.graph;
+        let found = pieces(g, program.ir.distance, program.ir.nearest);
+        let form = match found.as_deref() {
+            Some([piece]) if matches!(piece.form, Form::Lattice(_)) => piece.form.clone(),
+            other => panic!("{shape}: {other:?}"),
+        };
+        let raw = ir::lower(&scene);
+        let mut eval = Reference::new(&raw.graph, &[raw.distance]);
+        let mut field = |p: [f64; 4]| {
+            eval.run(&vars(p, [0.0; 4], 0.0));
+            eval.value(raw.distance)
+        };
+        for _ in 0..1500 {
+            let p = random_point(&mut rng, 5.0);
+            let (a, b) = (form.value(p), field(p));
+            assert!(
+                (a - b).abs() <= 1e-9,
+                "{shape} at {p:?}: {a}, reference {b}"
+            );
+        }
+        for i in 0..1500 {
+            let (p, d) = (random_point(&mut rng, 5.0), random_unit(&mut rng));
+            let at = |t: f64| -> [f64; 4] { std::array::from_fn(|a| p[a] + t * d[a]) };
+            if field(p) <= 1e-6 {
+                continue;
+            }
+            let limit = if i % 2 == 0 { 0.8 } else { 40.0 };
+            let (first, clear) = form.first(p, d, limit);
+            if first.is_none() && limit < 1.0 {
+                assert!(clear >= limit, "{shape}: clear to {clear} of {limit}");
+            }
+            let end = first.unwrap_or(clear.min(60.0));
+            for k in 0..400 {
+                let t = end * k as f64 / 400.0;
+                let f = field(at(t));
+                assert!(
+                    f > -1e-9,
+                    "{shape} from {p:?} along {d:?}: {f} at {t}, first {first:?}"
+                );
+            }
+            let Some(t) = first else {
+                missed += 1;
+                continue;
+            };
+            let f = field(at(t));
+            let inside = field(at(t + 1e-7));
+            assert!(
+                f.abs() < 1e-9 || (cut && inside < 1e-6),
+                "{shape} from {p:?} along {d:?}: {f} at its first {t} ({inside} just past)"
+            );
+            met += 1;
+        }
+    }
+    assert!(met > 1000 && missed > 300, "{met} met, {missed} missed");
 }
 
 /// Far from the origin, on surfaces of radius 1e5, a cell's `f32` tapes of the plain forms
@@ -1309,8 +1398,9 @@ fn only_distances_become_exact_spheres() {
 }
 
 /// The default marcher keeps a frame's cells only where its probe shows they pay: not on a D4
-/// tiling alone (7 instructions that nothing prunes, so cells only add bookkeeping), but on a
-/// union of 1024 spheres (cells cut each step to the few spheres nearby); on a sphere 1e6 from
+/// tiling of boxes (a few instructions that nothing prunes, so cells only add bookkeeping),
+/// but on the D4 packing of spheres (met exactly, cell by cell of the lattice), on a union of
+/// 1024 spheres (cells cut each step to the few spheres nearby); on a sphere 1e6 from
 /// the origin, which its cell meets exactly where the whole tape's hits settle in `f64`; and
 /// with the camera inside glass, whose rays the probe marches on the interior tape as the
 /// render does. The probe stays small whatever the image's shape. On a turned slab, relaxed
@@ -1331,13 +1421,18 @@ fn frames_march_through_cells_only_where_they_pay() {
     let tall = "render { size = 16 x 16384 }\n\
                 camera { from = [0, 0, -5, 0] }\n\
                 object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }";
+    let boxes = "render { size = 64 x 48 }\n\
+                 camera { from = [0.5, 0.5, -2.5, 0] }\n\
+                 object boxes { shape = hyperbox(0.3) |> tile(d4(1)) \
+                 material = diffuse(rgb(0.5)) }";
     // (scene, cells kept, relaxed steps)
     let cases = [
         (
             Compilation::from_path(Path::new("examples/d4_packing.4ds")),
-            false,
+            true,
             true,
         ),
+        (Compilation::from_source("boxes.4ds", boxes), false, true),
         (
             Compilation::from_path_with(
                 Path::new("benches/scenes/spheres.4ds"),

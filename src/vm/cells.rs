@@ -613,20 +613,42 @@ impl Cell {
     }
 }
 
-/// The nearest of `pieces` at `p` (local to their cell) and the first the ray along `d`
-/// meets, each as (distance or `t`, object).
-pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4) -> ((f64, f64), (f64, f64)) {
+/// What a ray meets of a cell's pieces (`meet`), each as (distance or `t`, object).
+#[derive(Clone, Copy, Debug)]
+pub struct Met {
+    /// The nearest piece at the ray's point.
+    pub near: (f64, f64),
+    /// The first piece the ray meets (infinity when it meets none before `clear`).
+    pub first: (f64, f64),
+    /// How far the ray is known to meet no piece: at least the `limit` asked for, unless a
+    /// tiled ball's crossing of its lattice gave up before (`Form::first`).
+    pub clear: f64,
+}
+
+/// What the ray from `p` (local to the pieces' cell) along `d` meets of `pieces`, looking at
+/// least `limit` far.
+pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, limit: f64) -> Met {
     let (p, d) = (p.to_array(), d.to_array());
-    let (mut near, mut first) = ((f64::INFINITY, 0.0), (f64::INFINITY, 0.0));
+    let mut met = Met {
+        near: (f64::INFINITY, 0.0),
+        first: (f64::INFINITY, 0.0),
+        clear: f64::INFINITY,
+    };
     for piece in pieces {
         let at = piece.form.value(p);
-        if at < near.0 {
-            near = (at, piece.object);
+        if at < met.near.0 {
+            met.near = (at, piece.object);
         }
-        match piece.form.first(p, d) {
-            Some(t) if t < first.0 => first = (t, piece.object),
+        let (t, clear) = piece.form.first(p, d, limit);
+        met.clear = met.clear.min(clear);
+        match t {
+            Some(t) if t < met.first.0 => met.first = (t, piece.object),
             _ => {}
         }
     }
-    (near, first)
+    // Beyond where one piece's crossing gave up, it may be met before the first of the others.
+    if met.first.0 > met.clear {
+        met.first = (f64::INFINITY, 0.0);
+    }
+    met
 }

@@ -118,15 +118,30 @@ fn vec4(v: [f64; 4]) -> String {
 
 impl fmt::Display for Piece {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self.form {
-            Form::Plane { g, c } => write!(f, "plane {} . p + {c}", vec4(g))?,
+        match &self.form {
+            Form::Plane { g, c } => write!(f, "plane {} . p + {c}", vec4(*g))?,
             Form::Ball { rows, b, r, sign } => {
                 let rows: Vec<String> = rows.iter().map(|row| vec4(*row)).collect();
                 write!(
                     f,
                     "ball {sign} (|A p + {}| - {r}), A rows {}",
-                    vec4(b),
+                    vec4(*b),
                     rows.join(" ")
+                )?
+            }
+            Form::Lattice(t) => {
+                let rows =
+                    |a: &[[f64; 4]; 4]| -> Vec<String> { a.iter().map(|r| vec4(*r)).collect() };
+                write!(
+                    f,
+                    "{:?}-tiled ball |A p + {} - M c| - {}, A rows {}, c the lattice point of q = B p + {}, B rows {}, M rows {}",
+                    t.tiling,
+                    vec4(t.b),
+                    t.r,
+                    rows(&t.rows).join(" "),
+                    vec4(t.at),
+                    rows(&t.to).join(" "),
+                    rows(&t.m).join(" ")
                 )?
             }
         }

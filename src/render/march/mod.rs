@@ -406,8 +406,12 @@ impl Marcher {
                 if let (false, Some(pieces)) = (r.interior, &cell.exact) {
                     self.evaluations += 1;
                     self.instructions += pieces.len() as u64;
-                    let exit = st.exit(cells, cell, p, r.d);
-                    let (near, first) = meet(pieces, p - cell.origin, r.d);
+                    // To the cell's side, and just past it: a root on the side may round to
+                    // just beyond it. A tiled ball's crossing of its lattice may stop short
+                    // (`Met::clear`); the ray goes on from there.
+                    let beyond = past(st.exit(cells, cell, p, r.d), cell);
+                    let met = meet(pieces, p - cell.origin, r.d, beyond.min(r.tmax - st.t));
+                    let (near, first) = (met.near, met.first);
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
                     } else if near.0 < tol {
@@ -415,15 +419,14 @@ impl Marcher {
                             t: st.t,
                             object: object(near.1),
                         }
-                    } else if first.0 <= past(exit, cell) {
-                        // Up to where the step past the side would land: a root on the
-                        // cell's side may round to just beyond it.
+                    } else if first.0 <= beyond.min(met.clear) {
+                        // (Infinity, none met and nothing beyond the cell, ends the ray.)
                         Step::Hit {
                             t: st.t + first.0,
                             object: object(first.1),
                         }
                     } else {
-                        Step::Advance(past(exit, cell))
+                        Step::Advance(beyond.min(met.clear))
                     };
                     finish(st, &mut self.next, k, r, step, limits, hits);
                     continue;
@@ -438,8 +441,10 @@ impl Marcher {
                         // towards one ends at its root).
                         let here = address(cell);
                         if st.partial != here {
-                            let (near, first) = meet(&partial.pieces, p - cell.origin, r.d);
-                            (st.near, st.first) = (near, (st.t + first.0, first.1));
+                            // No tiled ball is a partial cell's piece (`ir::exact::partition`):
+                            // its pieces are met to any length.
+                            let met = meet(&partial.pieces, p - cell.origin, r.d, f64::INFINITY);
+                            (st.near, st.first) = (met.near, (st.t + met.first.0, met.first.1));
                             st.leave = st.t + st.exit(cells, cell, p, r.d);
                             st.partial = here;
                             self.instructions += partial.pieces.len() as u64;

@@ -1,0 +1,374 @@
+//! Distances that rays can meet exactly: where a cell's scene distance is the smallest of a
+//! few planes and spheres (halfspaces, the faces of a box seen from inside, a hypersphere
+//! alone, the cut bound of what is far), the marcher intersects each in `f64` instead of
+//! stepping towards it. A ray grazing a plane or a large sphere would otherwise take
+//! thousands of steps, each a little shorter than the gap it closes. A ball tiled over a
+//! lattice is met cell by cell (`lattice`).
+
+mod lattice;
+
+use super::{Bin, Graph, Id, Node, Un, Var};
+pub use lattice::{Tiled, Tiling};
+
+/// One piece of a distance, on object `object`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piece {
+    pub form: Form,
+    pub object: f64,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum Form {
+    /// `g . p + c`
+    Plane { g: [f64; 4], c: f64 },
+    /// `sign (|A p + b| - r)`, with the rows of `A` in `rows`: a hypersphere (or, seen from
+    /// inside, its complement) of a linear image of the point (`first` solves any `A`; the
+    /// pieces of cells have orthonormal rows, so that the value is a distance).
+    Ball {
+        rows: [[f64; 4]; 4],
+        b: [f64; 4],
+        r: f64,
+        sign: f64,
+    },
+    /// A ball copied to every point of a lattice (`tile`): each point's copy in its cell.
+    Lattice(Box<Tiled>),
+}
+
+fn dot(a: [f64; 4], b: [f64; 4]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+}
+
+impl Form {
+    /// The distance at `p`.
+    pub fn value(&self, p: [f64; 4]) -> f64 {
+        match self {
+            Form::Plane { g, c } => dot(*g, p) + c,
+            Form::Ball { rows, b, r, sign } => {
+                let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
+                sign * (dot(u, u).sqrt() - r)
+            }
+            Form::Lattice(t) => t.value(p),
+        }
+    }
+
+    /// The first `t >= 0` at which the ray from `p` along `d` reaches the surface, coming
+    /// from where the distance is positive, if it does before `clear`; and `clear`, how far
+    /// the ray is known to meet none: infinity for a plane or a ball, at least `limit` for a
+    /// tiled ball unless it gave up crossing cells before (`Tiled::first`).
+    pub fn first(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (Option<f64>, f64) {
+        let t = match self {
+            Form::Plane { g, c } => {
+                let rate = dot(*g, d);
+                (rate < 0.0).then(|| ((dot(*g, p) + c) / -rate).max(0.0))
+            }
+            Form::Ball { rows, b, r, .. } => {
+                let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
+                let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
+                ball_roots(u, w, *r).and_then(|(t0, t1)| [t0, t1].into_iter().find(|t| *t >= 0.0))
+            }
+            Form::Lattice(t) => return t.first(p, d, limit),
+        };
+        (t, f64::INFINITY)
+    }
+
+    /// The same form plus `k`.
+    fn plus(self, k: f64) -> Form {
+        match self {
+            Form::Plane { g, c } => Form::Plane { g, c: c + k },
+            Form::Ball { rows, b, r, sign } => Form::Ball {
+                rows,
+                b,
+                r: r - sign * k,
+                sign,
+            },
+            Form::Lattice(t) => Form::Lattice(Box::new(Tiled { r: t.r - k, ..*t })),
+        }
+    }
+
+    /// The form times `-1`: none for a tiled ball, whose inside is no lattice of cells to
+    /// cross.
+    fn neg(self) -> Option<Form> {
+        Some(match self {
+            Form::Plane { g, c } => Form::Plane {
+                g: g.map(|x| -x),
+                c: -c,
+            },
+            Form::Ball { rows, b, r, sign } => Form::Ball {
+                rows,
+                b,
+                r,
+                sign: -sign,
+            },
+            Form::Lattice(_) => return None,
+        })
+    }
+}
+
+/// Where the ray `u + t w` is within `r` of the origin: the roots of `|u + t w| = r`, a
+/// quadratic in `t`, solved without cancellation, in order.
+fn ball_roots(u: [f64; 4], w: [f64; 4], r: f64) -> Option<(f64, f64)> {
+    let (a, half_b) = (dot(w, w), dot(u, w));
+    let norm = dot(u, u).sqrt();
+    let c = (norm - r) * (norm + r);
+    let disc = half_b * half_b - a * c;
+    if r <= 0.0 || a == 0.0 || disc < 0.0 {
+        return None;
+    }
+    let q = -(half_b + disc.sqrt().copysign(half_b));
+    let (t0, t1) = (q / a, if q != 0.0 { c / q } else { 0.0 });
+    Some((t0.min(t1), t0.max(t1)))
+}
+
+/// Most pieces worth intersecting one by one.
+const MAX_PIECES: usize = 8;
+
+/// The scene's distance `dist` with nearest object `near` as the smallest of a few pieces,
+/// when it is one.
+pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
+    let (exact, rest) = split(g, dist, near, true)?;
+    (rest.is_empty() && exact.len() <= MAX_PIECES).then_some(exact)
+}
+
+/// Objects of a running min, as (object index, distance).
+pub type Members = Vec<(usize, Id)>;
+
+/// The scene's distance `dist` with nearest object `near`, where it is a running min over
+/// objects some of which are a few planes and spheres: their pieces, and the other objects
+/// (object index, distance). None unless both kinds are there.
+pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
+    // A partial cell's pieces are met once, to the cell's side, as a ray enters it; a tiled
+    // ball's crossing of its lattice may stop short of it, so tiled balls are the rest's.
+    let (exact, rest) = split(g, dist, near, false)?;
+    let surface = |p: &Piece| !matches!(p.form, Form::Plane { g, .. } if g == [0.0; 4]);
+    (exact.iter().any(surface) && !rest.is_empty() && exact.len() <= MAX_PIECES)
+        .then_some((exact, rest))
+}
+
+/// The running min over objects at `dist` (nearest object `near`) split into the pieces of
+/// the objects that are a few planes and spheres (and tiled balls, when `tiled`) and the
+/// other objects; None where `dist` is no such min.
+fn split(g: &Graph, dist: Id, near: Id, tiled: bool) -> Option<(Vec<Piece>, Members)> {
+    let (mut exact, mut rest) = (vec![], vec![]);
+    split_at(g, (dist, near), tiled, &mut exact, &mut rest)?;
+    // The running min starts at +infinity, which is no surface.
+    exact.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
+    Some((exact, rest))
+}
+
+/// `split` into `exact` and `rest`: the running min-with-id's `best` first, then its
+/// member `d` of object `id`; where the min starts, the object is a constant (+infinity,
+/// what the cut objects folded into, or the first object).
+fn split_at(
+    g: &Graph,
+    (dist, near): (Id, Id),
+    tiled: bool,
+    exact: &mut Vec<Piece>,
+    rest: &mut Members,
+) -> Option<()> {
+    let (member, object) = match (g.get(dist), g.get(near)) {
+        (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => match g.get(t) {
+            Node::MinId(best, best_id, d, id) => {
+                split_at(g, (best, best_id), tiled, exact, rest)?;
+                (d, id.get())
+            }
+            _ => return None,
+        },
+        _ => (dist, g.constant(near)?),
+    };
+    let mut forms = vec![];
+    let lattice = |forms: &[Form]| forms.iter().any(|f| matches!(f, Form::Lattice(_)));
+    match min_of_forms(g, member, false, 0, &mut forms) {
+        Some(()) if tiled || !lattice(&forms) => {
+            exact.extend(forms.into_iter().map(|form| Piece { form, object }))
+        }
+        _ if object >= 0.0 => rest.push((object as usize, member)),
+        _ => return None,
+    }
+    Some(())
+}
+
+/// `id` (negated when `neg`) as a min of forms, appended to `out`.
+fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -> Option<()> {
+    if depth > 16 || out.len() > MAX_PIECES {
+        return None;
+    }
+    let signed = |f: Form| if neg { f.neg() } else { Some(f) };
+    if let Some(f) = form(g, id) {
+        out.push(signed(f)?);
+        return Some(());
+    }
+    match g.get(id) {
+        Node::Bin(Bin::Min, a, b) if !neg => {
+            min_of_forms(g, a, neg, depth + 1, out)?;
+            min_of_forms(g, b, neg, depth + 1, out)
+        }
+        // -max(a, b) = min(-a, -b)
+        Node::Bin(Bin::Max, a, b) if neg => {
+            min_of_forms(g, a, neg, depth + 1, out)?;
+            min_of_forms(g, b, neg, depth + 1, out)
+        }
+        Node::Un(Un::Neg, a) => min_of_forms(g, a, !neg, depth + 1, out),
+        Node::Bin(op @ (Bin::Add | Bin::Sub), a, b) => {
+            let (x, k) = match (g.constant(a), g.constant(b)) {
+                (_, Some(k)) => (a, if op == Bin::Add { k } else { -k }),
+                (Some(k), _) if op == Bin::Add => (b, k),
+                _ => return None,
+            };
+            let from = out.len();
+            min_of_forms(g, x, neg, depth + 1, out)?;
+            let k = if neg { -k } else { k };
+            for f in &mut out[from..] {
+                *f = f.clone().plus(k);
+            }
+            Some(())
+        }
+        _ => None,
+    }
+}
+
+/// `id` as one plane or sphere, or a sphere tiled over a lattice, when it is one. A sphere's
+/// map must be orthonormal on the rows it uses (a rotation, a projection onto some axes):
+/// then `|A p + b| - r` is a distance bound like the others, which the marcher's steps rely
+/// on near the piece.
+fn form(g: &Graph, id: Id) -> Option<Form> {
+    if let Some((g, c)) = linear(g, id) {
+        return Some(Form::Plane { g, c });
+    }
+    let Node::Length(v, r) = g.get(id) else {
+        return None;
+    };
+    let ball = |leaf: &mut dyn FnMut(Id) -> Option<usize>| {
+        let mut rows = [[0.0; 4]; 4];
+        let mut b = [0.0; 4];
+        for i in 0..4 {
+            (rows[i], b[i]) = linear_in(g, v[i], leaf, 8)?;
+            b[i] += r[i].get();
+        }
+        Some((rows, b))
+    };
+    let r = r[4].get();
+    if let Some((rows, b)) = ball(&mut |id| point(g, id)) {
+        return orthonormal(&rows).then_some(Form::Ball {
+            rows,
+            b,
+            r,
+            sign: 1.0,
+        });
+    }
+    // A length of a lattice's offsets: the offset from the nearest D4 point, or from the
+    // cells of up to four repetitions (a grid), in the order first met.
+    let mut tuples: Vec<Id> = vec![];
+    let (m, off) = ball(&mut |id| {
+        let Node::Proj(t, k) = g.get(id) else {
+            return None;
+        };
+        let known = tuples.iter().position(|&u| u == t);
+        match (g.get(t), known) {
+            (Node::D4(_), Some(_)) if k < 4 => Some(k as usize),
+            (Node::D4(_), None) if k < 4 && tuples.is_empty() => {
+                tuples.push(t);
+                Some(k as usize)
+            }
+            (Node::Rep(..), Some(i)) if k == 0 => Some(i),
+            (Node::Rep(..), None) if k == 0 && tuples.len() < 4 => {
+                tuples.push(t);
+                (tuples.iter().all(|&u| matches!(g.get(u), Node::Rep(..))))
+                    .then_some(tuples.len() - 1)
+            }
+            _ => None,
+        }
+    })?;
+    let (mut to, mut at) = ([[0.0; 4]; 4], [0.0; 4]);
+    let tiling = match g.get(*tuples.first()?) {
+        Node::D4(w) => {
+            for k in 0..4 {
+                (to[k], at[k]) = linear(g, w[k])?;
+            }
+            Tiling::D4
+        }
+        _ => {
+            let mut limit = [0.0; 4];
+            for (k, &t) in tuples.iter().enumerate() {
+                let Node::Rep(x, l) = g.get(t) else {
+                    return None;
+                };
+                ((to[k], at[k]), limit[k]) = (linear(g, x)?, l.get());
+            }
+            Tiling::Grid { limit }
+        }
+    };
+    let rows: [[f64; 4]; 4] =
+        std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| m[i][k] * to[k][j]).sum()));
+    let b = std::array::from_fn(|i| dot(m[i], at) + off[i]);
+    (orthonormal(&rows) && [to, m].iter().flatten().flatten().all(|x| x.is_finite())).then_some(
+        Form::Lattice(Box::new(Tiled {
+            tiling,
+            to,
+            at,
+            m,
+            rows,
+            b,
+            r,
+        })),
+    )
+}
+
+/// Whether the rows that are not zero are orthonormal.
+fn orthonormal(rows: &[[f64; 4]; 4]) -> bool {
+    let used: Vec<&[f64; 4]> = rows.iter().filter(|r| **r != [0.0; 4]).collect();
+    (used.iter().enumerate()).all(|(i, a)| {
+        (used.iter().enumerate()).all(|(j, b)| {
+            let want = if i == j { 1.0 } else { 0.0 };
+            (dot(**a, **b) - want).abs() <= 1e-9
+        })
+    })
+}
+
+/// The coordinate of the point that `id` is, if it is one.
+fn point(g: &Graph, id: Id) -> Option<usize> {
+    match g.get(id) {
+        Node::Var(v) if Var::POINT.contains(&v) => Some(v.index()),
+        _ => None,
+    }
+}
+
+/// `id` as an affine function of the point, `g . p + c`, when it is one.
+pub fn linear(g: &Graph, id: Id) -> Option<([f64; 4], f64)> {
+    linear_in(g, id, &mut |x| point(g, x), 8)
+}
+
+/// `id` as an affine function `g . v + c` of four variables, the nodes for which `leaf` gives
+/// an index.
+fn linear_in(
+    g: &Graph,
+    id: Id,
+    leaf: &mut dyn FnMut(Id) -> Option<usize>,
+    depth: u32,
+) -> Option<([f64; 4], f64)> {
+    let depth = depth.checked_sub(1)?;
+    let scaled = |(v, c): ([f64; 4], f64), k: f64| (v.map(|x| x * k), c * k);
+    let sum = |(a, c): ([f64; 4], f64), (b, e): ([f64; 4], f64)| {
+        (std::array::from_fn(|i| a[i] + b[i]), c + e)
+    };
+    if let Some(i) = leaf(id) {
+        let mut e = [0.0; 4];
+        e[i] = 1.0;
+        return Some((e, 0.0));
+    }
+    let mut sub = |x: Id| linear_in(g, x, leaf, depth);
+    Some(match g.get(id) {
+        Node::Const(k) => ([0.0; 4], k.get()),
+        Node::Affine(v, r) => (0..4).try_fold(([0.0; 4], r[4].get()), |acc, i| {
+            Some(sum(acc, scaled(sub(v[i])?, r[i].get())))
+        })?,
+        Node::Bin(Bin::Add, a, b) => sum(sub(a)?, sub(b)?),
+        Node::Bin(Bin::Sub, a, b) => sum(sub(a)?, scaled(sub(b)?, -1.0)),
+        Node::Bin(Bin::Mul, a, b) => match (g.constant(a), g.constant(b)) {
+            (Some(k), _) => scaled(sub(b)?, k),
+            (_, Some(k)) => scaled(sub(a)?, k),
+            _ => return None,
+        },
+        Node::Un(Un::Neg, a) => scaled(sub(a)?, -1.0),
+        _ => return None,
+    })
+}
