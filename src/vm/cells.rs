@@ -635,11 +635,10 @@ pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, limit: f64) -> Met {
         clear: f64::INFINITY,
     };
     for piece in pieces {
-        let at = piece.form.value(p);
+        let (at, t, clear) = piece.form.meet(p, d, limit);
         if at < met.near.0 {
             met.near = (at, piece.object);
         }
-        let (t, clear) = piece.form.first(p, d, limit);
         met.clear = met.clear.min(clear);
         match t {
             Some(t) if t < met.first.0 => met.first = (t, piece.object),

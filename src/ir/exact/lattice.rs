@@ -33,19 +33,21 @@ pub struct Tiled {
     pub r: f64,
 }
 
-/// Most lattice cells one `Tiled::first` crosses before it gives up: a ray along one of the
+/// Most lattice cells one `Tiled::meet` crosses before it gives up: a ray along one of the
 /// D4 packing's channels may meet no ball at all. The ray goes on from where it stopped.
 const MAX_CELLS: usize = 64;
 
 /// The pairs of axes: a D4 point's 24 nearest neighbours are `±e_i ± e_j` for each.
 const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
 
+#[inline(always)]
 fn apply(a: &[[f64; 4]; 4], v: [f64; 4]) -> [f64; 4] {
     std::array::from_fn(|i| dot(a[i], v))
 }
 
 impl Tiling {
     /// The lattice point whose cell holds `q` (the VM's `d4` and `rep`).
+    #[inline(always)]
     pub fn nearest(&self, q: [f64; 4]) -> [f64; 4] {
         match self {
             Tiling::D4 => {
@@ -59,6 +61,7 @@ impl Tiling {
     /// Where the ray `x + t w` (lattice coordinates relative to the point `c`, from inside its
     /// cell) leaves the cell, and the step from `c` to the point of the cell it enters
     /// (infinity and zero if it never leaves).
+    #[inline(always)]
     fn leave(&self, c: [f64; 4], x: [f64; 4], w: [f64; 4]) -> (f64, [f64; 4]) {
         let mut out = (f64::INFINITY, [0.0; 4]);
         match self {
@@ -116,18 +119,21 @@ impl Tiling {
 
 impl Tiled {
     /// The lattice coordinates of `p`.
+    #[inline(always)]
     fn lattice(&self, p: [f64; 4]) -> [f64; 4] {
         let q = apply(&self.to, p);
         std::array::from_fn(|i| q[i] + self.at[i])
     }
 
     /// `p` relative to the copy at lattice point `c`, given `u = rows p + b`.
+    #[inline(always)]
     fn local(&self, u: [f64; 4], c: [f64; 4]) -> [f64; 4] {
         let mc = apply(&self.m, c);
         std::array::from_fn(|i| u[i] - mc[i])
     }
 
     /// `rows p + b`.
+    #[inline(always)]
     fn image(&self, p: [f64; 4]) -> [f64; 4] {
         let u = apply(&self.rows, p);
         std::array::from_fn(|i| u[i] + self.b[i])
@@ -140,14 +146,24 @@ impl Tiled {
         dot(u, u).sqrt() - self.r
     }
 
-    /// The first `t` in `[0, limit]` at which the ray from `p` along `d` is in the copy of the
-    /// ball of the cell it is in, if there is one, else how far it is clear of every copy: at
-    /// least `limit`, or less where it gave up after `MAX_CELLS` cells.
-    pub fn first(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (Option<f64>, f64) {
+    /// The distance at `p`, and the first `t` in `[0, limit]` at which the ray from `p` along
+    /// `d` is in the copy of the ball of the cell it is in, if there is one, else how far it is
+    /// clear of every copy: at least `limit`, or less where it gave up after `MAX_CELLS`
+    /// cells.
+    pub fn meet(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (f64, Option<f64>, f64) {
+        // With AVX2 and FMA where the CPU has them: `round` inline (`nearest`) and the faces'
+        // quotients four at a time.
+        crate::wide!(self.cross(p, d, limit))
+    }
+
+    #[inline(always)]
+    fn cross(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (f64, Option<f64>, f64) {
         let q = self.lattice(p);
         let w = apply(&self.to, d);
         let (u, along) = (self.image(p), apply(&self.rows, d));
         let mut c = self.tiling.nearest(q);
+        let here = self.local(u, c);
+        let value = dot(here, here).sqrt() - self.r;
         let mut from = 0.0;
         for _ in 0..MAX_CELLS {
             if from > limit {
@@ -159,13 +175,13 @@ impl Tiled {
             if let Some((t0, t1)) = super::ball_roots(self.local(u, c), along, self.r) {
                 let t = t0.max(from);
                 if t <= t1.min(to) {
-                    return (Some(t), t);
+                    return (value, Some(t), t);
                 }
             }
             from = to;
             c = std::array::from_fn(|i| c[i] + n[i]);
         }
-        (None, from)
+        (value, None, from)
     }
 }
 
