@@ -1144,7 +1144,7 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
         if at(0.0) <= 1e-6 {
             continue;
         }
-        let (value, end, clear) = form.meet(p, d, 50.0);
+        let (value, end, clear) = form.meet(p, d, (50.0, 0));
         assert_eq!(value, form.value(p));
         assert_eq!(clear, f64::INFINITY, "{form:?}");
         let until = end.unwrap_or(50.0);
@@ -1230,7 +1230,7 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
                 continue;
             }
             let limit = if i % 2 == 0 { 0.8 } else { 40.0 };
-            let (value, first, clear) = form.meet(p, d, limit);
+            let (value, first, clear) = form.meet(p, d, (limit, hyperslice::ir::exact::CELLS));
             assert!(
                 (value - field(p)).abs() <= 1e-9,
                 "{shape} at {p:?}: {value}"

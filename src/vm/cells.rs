@@ -621,13 +621,13 @@ pub struct Met {
     /// The first piece the ray meets (infinity when it meets none before `clear`).
     pub first: (f64, f64),
     /// How far the ray is known to meet no piece: at least the `limit` asked for, unless a
-    /// tiled ball's crossing of its lattice gave up before (`Form::first`).
+    /// tiled ball's crossing of its lattice gave up before (`Form::meet`).
     pub clear: f64,
 }
 
 /// What the ray from `p` (local to the pieces' cell) along `d` meets of `pieces`, looking at
-/// least `limit` far.
-pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, limit: f64) -> Met {
+/// least `limit` far, or across at most `cells` cells of a tiled ball's lattice.
+pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
     let (p, d) = (p.to_array(), d.to_array());
     let mut met = Met {
         near: (f64::INFINITY, 0.0),
@@ -635,7 +635,7 @@ pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, limit: f64) -> Met {
         clear: f64::INFINITY,
     };
     for piece in pieces {
-        let (at, t, clear) = piece.form.meet(p, d, limit);
+        let (at, t, clear) = piece.form.meet(p, d, reach);
         if at < met.near.0 {
             met.near = (at, piece.object);
         }

@@ -33,9 +33,11 @@ pub struct Tiled {
     pub r: f64,
 }
 
-/// Most lattice cells one `Tiled::meet` crosses before it gives up: a ray along one of the
-/// D4 packing's channels may meet no ball at all. The ray goes on from where it stopped.
-const MAX_CELLS: usize = 64;
+/// The lattice cells a crossing (`Tiled::meet`) goes before it gives up, to start with: a ray
+/// along one of the D4 packing's channels may meet no ball for a long way. The ray goes on
+/// from where it stopped, and the marcher lets a ray that has taken many steps cross more
+/// cells in each (`march`).
+pub const CELLS: usize = 64;
 
 /// The pairs of axes: a D4 point's 24 nearest neighbours are `±e_i ± e_j` for each.
 const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
@@ -148,16 +150,26 @@ impl Tiled {
 
     /// The distance at `p`, and the first `t` in `[0, limit]` at which the ray from `p` along
     /// `d` is in the copy of the ball of the cell it is in, if there is one, else how far it is
-    /// clear of every copy: at least `limit`, or less where it gave up after `MAX_CELLS`
+    /// clear of every copy: at least `limit`, or less where it gave up after crossing `cells`
     /// cells.
-    pub fn meet(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (f64, Option<f64>, f64) {
+    pub fn meet(
+        &self,
+        p: [f64; 4],
+        d: [f64; 4],
+        (limit, cells): (f64, usize),
+    ) -> (f64, Option<f64>, f64) {
         // With AVX2 and FMA where the CPU has them: `round` inline (`nearest`) and the faces'
         // quotients four at a time.
-        crate::wide!(self.cross(p, d, limit))
+        crate::wide!(self.cross(p, d, (limit, cells)))
     }
 
     #[inline(always)]
-    fn cross(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (f64, Option<f64>, f64) {
+    fn cross(
+        &self,
+        p: [f64; 4],
+        d: [f64; 4],
+        (limit, cells): (f64, usize),
+    ) -> (f64, Option<f64>, f64) {
         let q = self.lattice(p);
         let w = apply(&self.to, d);
         let (u, along) = (self.image(p), apply(&self.rows, d));
@@ -165,7 +177,7 @@ impl Tiled {
         let here = self.local(u, c);
         let value = dot(here, here).sqrt() - self.r;
         let mut from = 0.0;
-        for _ in 0..MAX_CELLS {
+        for _ in 0..cells {
             if from > limit {
                 break;
             }

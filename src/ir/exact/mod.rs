@@ -8,7 +8,7 @@
 mod lattice;
 
 use super::{Bin, Graph, Id, Node, Un, Var};
-pub use lattice::{Tiled, Tiling};
+pub use lattice::{CELLS, Tiled, Tiling};
 
 /// One piece of a distance, on object `object`.
 #[derive(Clone, Debug, PartialEq)]
@@ -55,9 +55,9 @@ impl Form {
     /// What the ray from `p` along `d` meets: the distance at `p`; the first `t >= 0` at which
     /// the ray reaches the surface, coming from where the distance is positive, if it does
     /// before `clear`; and `clear`, how far the ray is known to meet none: infinity for a
-    /// plane or a ball, at least `limit` for a tiled ball unless it gave up crossing cells
-    /// before (`Tiled::meet`).
-    pub fn meet(&self, p: [f64; 4], d: [f64; 4], limit: f64) -> (f64, Option<f64>, f64) {
+    /// plane or a ball, at least `limit` for a tiled ball unless it gave up before, after
+    /// crossing `cells` of its lattice's cells (`Tiled::meet`).
+    pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> (f64, Option<f64>, f64) {
         let t = match self {
             Form::Plane { g, c } => {
                 let rate = dot(*g, d);
@@ -68,7 +68,7 @@ impl Form {
                 let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
                 ball_roots(u, w, *r).and_then(|(t0, t1)| [t0, t1].into_iter().find(|t| *t >= 0.0))
             }
-            Form::Lattice(t) => return t.meet(p, d, limit),
+            Form::Lattice(t) => return t.meet(p, d, reach),
         };
         (self.value(p), t, f64::INFINITY)
     }

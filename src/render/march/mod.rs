@@ -21,6 +21,7 @@
 mod lanes;
 mod plain;
 
+use crate::ir::exact::CELLS;
 use crate::vm::Tape;
 use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
 use crate::vm::escape::{Escape, Proofs};
@@ -408,9 +409,13 @@ impl Marcher {
                     self.instructions += pieces.len() as u64;
                     // To the cell's side, and just past it: a root on the side may round to
                     // just beyond it. A tiled ball's crossing of its lattice may stop short
-                    // (`Met::clear`); the ray goes on from there.
+                    // (`Met::clear`); the ray goes on from there, crossing more cells in each
+                    // step the more steps it has taken (up to 64 times as many after 24), so
+                    // that a ray a hair off one of the D4 packing's channels, which meets a
+                    // sphere only some 200,000 units on, gets there within its steps.
                     let beyond = past(st.exit(cells, cell, p, r.d), cell);
-                    let met = meet(pieces, p - cell.origin, r.d, beyond.min(r.tmax - st.t));
+                    let reach = (beyond.min(r.tmax - st.t), CELLS << (st.steps / 4).min(6));
+                    let met = meet(pieces, p - cell.origin, r.d, reach);
                     let (near, first) = (met.near, met.first);
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
@@ -443,7 +448,8 @@ impl Marcher {
                         if st.partial != here {
                             // No tiled ball is a partial cell's piece (`ir::exact::partition`):
                             // its pieces are met to any length.
-                            let met = meet(&partial.pieces, p - cell.origin, r.d, f64::INFINITY);
+                            let reach = (f64::INFINITY, CELLS);
+                            let met = meet(&partial.pieces, p - cell.origin, r.d, reach);
                             (st.near, st.first) = (met.near, (st.t + met.first.0, met.first.1));
                             st.leave = st.t + st.exit(cells, cell, p, r.d);
                             st.partial = here;
