@@ -1144,8 +1144,10 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
         if at(0.0) <= 1e-6 {
             continue;
         }
-        let (value, end, clear) = form.meet(p, d, (50.0, 0));
-        assert_eq!(value, form.value(p));
+        let (end, clear) = {
+            let m = form.meet(p, d, (50.0, 0));
+            (m.first, m.clear)
+        };
         assert_eq!(clear, f64::INFINITY, "{form:?}");
         let until = end.unwrap_or(50.0);
         for k in 0..200 {
@@ -1230,7 +1232,8 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
                 continue;
             }
             let limit = if i % 2 == 0 { 0.8 } else { 40.0 };
-            let (value, first, clear) = form.meet(p, d, (limit, hyperslice::ir::exact::CELLS));
+            let m = form.meet(p, d, (limit, hyperslice::ir::exact::CELLS));
+            let (value, first, clear) = (m.value, m.first, m.clear);
             assert!(
                 (value - field(p)).abs() <= 1e-9,
                 "{shape} at {p:?}: {value}"
@@ -1261,6 +1264,30 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
         }
     }
     assert!(met > 1000 && missed > 300, "{met} met, {missed} missed");
+    // What is not a tiled ball's distance stays on the tapes: a tiled ball cut out of a box
+    // (its negation), a tiled onion, and a tiled ball beside a custom field, where a partial
+    // cell's pieces are the floor's alone (a crossing may stop short of the cell's side).
+    use hyperslice::ir::exact::partition;
+    let tiled =
+        |p: &[hyperslice::ir::exact::Piece]| p.iter().any(|p| matches!(p.form, Form::Lattice(_)));
+    for shape in [
+        "subtract(hyperbox(3), hypersphere(0.4) |> tile(d4(1)))",
+        "hypersphere(0.3) |> onion(0.05) |> tile(d4(1))",
+    ] {
+        let scene = compile_text(&format!("object s {{ shape = {shape} }}"));
+        let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
+        let found = pieces(&program.ir.graph, program.ir.distance, program.ir.nearest);
+        assert!(!found.as_deref().is_some_and(tiled), "{shape}: {found:?}");
+    }
+    let scene = compile_text(
+        "object a { shape = hypersphere(0.4) |> tile(d4(1)) }\n\
+         object b { shape = sdf |p| length(p) - 0.3 + 0.1 * sin(p.x * 1rad) }\n\
+         object c { shape = halfspace([0, 1, 0, 0], offset: 2) }",
+    );
+    let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
+    let (parts, rest) = partition(&program.ir.graph, program.ir.distance, program.ir.nearest)
+        .expect("the floor apart from the rest");
+    assert!(!tiled(&parts) && rest.len() == 2, "{parts:?} {rest:?}");
 }
 
 /// Far from the origin, on surfaces of radius 1e5, a cell's `f32` tapes of the plain forms

@@ -623,6 +623,8 @@ pub struct Met {
     /// How far the ray is known to meet no piece: at least the `limit` asked for, unless a
     /// tiled ball's crossing of its lattice gave up before (`Form::meet`).
     pub clear: f64,
+    /// Lattice cells the tiled balls' crossings went through.
+    pub cells: usize,
 }
 
 /// What the ray from `p` (local to the pieces' cell) along `d` meets of `pieces`, looking at
@@ -633,14 +635,15 @@ pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
         near: (f64::INFINITY, 0.0),
         first: (f64::INFINITY, 0.0),
         clear: f64::INFINITY,
+        cells: 0,
     };
     for piece in pieces {
-        let (at, t, clear) = piece.form.meet(p, d, reach);
-        if at < met.near.0 {
-            met.near = (at, piece.object);
+        let m = piece.form.meet(p, d, reach);
+        if m.value < met.near.0 {
+            met.near = (m.value, piece.object);
         }
-        met.clear = met.clear.min(clear);
-        match t {
+        (met.clear, met.cells) = (met.clear.min(m.clear), met.cells + m.cells);
+        match m.first {
             Some(t) if t < met.first.0 => met.first = (t, piece.object),
             _ => {}
         }

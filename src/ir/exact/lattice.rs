@@ -4,7 +4,7 @@
 //! spheres of the D4 packing, each as long as the distance to the nearest, and thousands along
 //! the packing's channels.
 
-use super::dot;
+use super::{Meeting, dot};
 use crate::math::kernel::{d4, rep};
 
 /// Which lattice, in lattice units (`Tiled::to`).
@@ -152,24 +152,14 @@ impl Tiled {
     /// `d` is in the copy of the ball of the cell it is in, if there is one, else how far it is
     /// clear of every copy: at least `limit`, or less where it gave up after crossing `cells`
     /// cells.
-    pub fn meet(
-        &self,
-        p: [f64; 4],
-        d: [f64; 4],
-        (limit, cells): (f64, usize),
-    ) -> (f64, Option<f64>, f64) {
+    pub fn meet(&self, p: [f64; 4], d: [f64; 4], (limit, cells): (f64, usize)) -> Meeting {
         // With AVX2 and FMA where the CPU has them: `round` inline (`nearest`) and the faces'
         // quotients four at a time.
         crate::wide!(self.cross(p, d, (limit, cells)))
     }
 
     #[inline(always)]
-    fn cross(
-        &self,
-        p: [f64; 4],
-        d: [f64; 4],
-        (limit, cells): (f64, usize),
-    ) -> (f64, Option<f64>, f64) {
+    fn cross(&self, p: [f64; 4], d: [f64; 4], (limit, cells): (f64, usize)) -> Meeting {
         let q = self.lattice(p);
         let w = apply(&self.to, d);
         let (u, along) = (self.image(p), apply(&self.rows, d));
@@ -177,9 +167,15 @@ impl Tiled {
         let here = self.local(u, c);
         let value = dot(here, here).sqrt() - self.r;
         let mut from = 0.0;
-        for _ in 0..cells {
+        let meeting = |first, clear, cells| Meeting {
+            value,
+            first,
+            clear,
+            cells,
+        };
+        for k in 0..cells {
             if from > limit {
-                break;
+                return meeting(None, from, k);
             }
             let x = std::array::from_fn(|i| q[i] - c[i]);
             let (to, n) = self.tiling.leave(c, x, w);
@@ -187,13 +183,17 @@ impl Tiled {
             if let Some((t0, t1)) = super::ball_roots(self.local(u, c), along, self.r) {
                 let t = t0.max(from);
                 if t <= t1.min(to) {
-                    return (value, Some(t), t);
+                    return meeting(Some(t), t, k + 1);
                 }
+            }
+            // A grid's end cell, left along no axis: nothing more to meet.
+            if to == f64::INFINITY {
+                return meeting(None, to, k + 1);
             }
             from = to;
             c = std::array::from_fn(|i| c[i] + n[i]);
         }
-        (value, None, from)
+        meeting(None, from, cells)
     }
 }
 
@@ -236,12 +236,13 @@ mod tests {
                 let x = std::array::from_fn(|i| q[i] - c[i]);
                 let (t, n) = tiling.leave(c, x, w);
                 let at = |t: f64| std::array::from_fn(|i| q[i] + t * w[i]);
+                // A D4 cell is bounded: every ray leaves it.
+                assert!(t.is_finite() || tiling != Tiling::D4, "{q:?} {w:?}");
                 if t.is_infinite() {
                     assert_eq!(tiling.nearest(at(1e3)), c, "{tiling:?} {q:?} {w:?}");
                     continue;
                 }
                 assert!(t >= -1e-12, "{tiling:?}: leaves at {t}");
-                assert!(t.is_finite() || tiling != Tiling::D4, "{q:?} {w:?}");
                 assert_eq!(tiling.nearest(at(t * 0.999)), c, "{tiling:?} {q:?} {w:?}");
                 let next: [f64; 4] = std::array::from_fn(|i| c[i] + n[i]);
                 assert_eq!(tiling.nearest(at(t + 1e-9)), next, "{tiling:?} {q:?} {w:?}");

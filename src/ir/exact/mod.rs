@@ -39,6 +39,19 @@ fn dot(a: [f64; 4], b: [f64; 4]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 }
 
+/// What a ray meets of a form (`Form::meet`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Meeting {
+    /// The distance at the ray's point.
+    pub value: f64,
+    /// The first `t` at which the ray reaches the surface, if it does before `clear`.
+    pub first: Option<f64>,
+    /// How far the ray is known to meet no surface of the form.
+    pub clear: f64,
+    /// Lattice cells crossed (0 but for a tiled ball): the work the meeting cost.
+    pub cells: usize,
+}
+
 impl Form {
     /// The distance at `p`.
     pub fn value(&self, p: [f64; 4]) -> f64 {
@@ -52,12 +65,12 @@ impl Form {
         }
     }
 
-    /// What the ray from `p` along `d` meets: the distance at `p`; the first `t >= 0` at which
-    /// the ray reaches the surface, coming from where the distance is positive, if it does
-    /// before `clear`; and `clear`, how far the ray is known to meet none: infinity for a
-    /// plane or a ball, at least `limit` for a tiled ball unless it gave up before, after
-    /// crossing `cells` of its lattice's cells (`Tiled::meet`).
-    pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> (f64, Option<f64>, f64) {
+    /// What the ray from `p` along `d` meets: the first `t >= 0` at which it reaches the
+    /// surface, coming from where the distance is positive, if it does before `clear`, how far
+    /// it is known to meet none: infinity for a plane or a ball, at least `limit` for a tiled
+    /// ball unless it gave up before, after crossing `cells` of its lattice's cells
+    /// (`Tiled::meet`).
+    pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> Meeting {
         let t = match self {
             Form::Plane { g, c } => {
                 let rate = dot(*g, d);
@@ -70,7 +83,12 @@ impl Form {
             }
             Form::Lattice(t) => return t.meet(p, d, reach),
         };
-        (self.value(p), t, f64::INFINITY)
+        Meeting {
+            value: self.value(p),
+            first: t,
+            clear: f64::INFINITY,
+            cells: 0,
+        }
     }
 
     /// The same form plus `k`.
@@ -119,7 +137,8 @@ fn ball_roots(u: [f64; 4], w: [f64; 4], r: f64) -> Option<(f64, f64)> {
     let norm = uu.sqrt();
     let c = (norm - r) * (norm + r);
     let disc = half_b * half_b - a * c;
-    if r <= 0.0 || a == 0.0 || disc < 0.0 {
+    // A NaN (from an infinite copy) meets nothing, as a negative does.
+    if r <= 0.0 || a == 0.0 || disc < 0.0 || disc.is_nan() {
         return None;
     }
     let q = -(half_b + disc.sqrt().copysign(half_b));

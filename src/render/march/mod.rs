@@ -406,16 +406,20 @@ impl Marcher {
                 }
                 if let (false, Some(pieces)) = (r.interior, &cell.exact) {
                     self.evaluations += 1;
-                    self.instructions += pieces.len() as u64;
                     // To the cell's side, and just past it: a root on the side may round to
                     // just beyond it. A tiled ball's crossing of its lattice may stop short
                     // (`Met::clear`); the ray goes on from there, crossing more cells in each
-                    // step the more steps it has taken (up to 64 times as many after 24), so
+                    // step the more steps it has taken (up to 4 times as many after 8), so
                     // that a ray a hair off one of the D4 packing's channels, which meets a
-                    // sphere only some 200,000 units on, gets there within its steps.
+                    // sphere only some 200,000 units on, mostly gets there within its steps.
+                    // Not more: a ray that meets no copy ever (a slice that misses every
+                    // sphere of a sparse packing) crosses cells until its steps run out.
                     let beyond = past(st.exit(cells, cell, p, r.d), cell);
-                    let reach = (beyond.min(r.tmax - st.t), CELLS << (st.steps / 4).min(6));
+                    let reach = (beyond.min(r.tmax - st.t), CELLS << (st.steps / 4).min(2));
                     let met = meet(pieces, p - cell.origin, r.d, reach);
+                    // A lattice cell crossed costs about as much as `CELL_WORK` instructions
+                    // of a cell's tape: the probe's model weighs the cells' march by them.
+                    self.instructions += (pieces.len() + met.cells * CELL_WORK) as u64;
                     let (near, first) = (met.near, met.first);
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
@@ -796,6 +800,13 @@ fn approach(
     }
     Step::Advance(at - t)
 }
+
+/// What crossing one cell of a tiled ball's lattice costs, in tape instructions per lane, as
+/// the probe's model counts them (`render::probe`): on the D4 packing a cell took about 118
+/// ns in `perf` (a crossing's own set-up included), and the model puts a whole-tape step
+/// there at about a quarter of its measured time, so 118 / 4 ns at the cells' 0.77 ns an
+/// instruction (see `docs/performance.md`, "A tiled ball met exactly").
+const CELL_WORK: usize = 38;
 
 /// Most distances `settle` evaluates after the first, and most steps `approach` takes.
 const SETTLE: u32 = 8;
