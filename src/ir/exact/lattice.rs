@@ -153,8 +153,8 @@ impl Tiled {
     /// clear of every copy: at least `limit`, or less where it gave up after crossing `cells`
     /// cells.
     pub fn meet(&self, p: [f64; 4], d: [f64; 4], (limit, cells): (f64, usize)) -> Meeting {
-        // With AVX2 and FMA where the CPU has them: `round` inline (`nearest`) and the faces'
-        // quotients four at a time.
+        // With AVX2 and FMA where the CPU has them: `round` inline (`nearest`), not a C
+        // library call, and wider vectors for the faces' quotients.
         crate::wide!(self.cross(p, d, (limit, cells)))
     }
 
@@ -201,8 +201,6 @@ impl Tiled {
 mod tests {
     use super::*;
 
-    /// The neighbour a ray enters is the lattice point nearest to it just past the face, and
-    /// it stays in each cell up to the face: checked on random rays against `nearest`.
     /// A ray in the plane of a face (here `x + y = 1`, which holds the point and the
     /// direction) still leaves the cell through another: 0 / 0 there once made it stay
     /// for ever, and the D4 packing's channel rays end at infinity.
@@ -214,6 +212,8 @@ mod tests {
         assert_eq!(n.iter().map(|v| v * v).sum::<f64>(), 2.0);
     }
 
+    /// The neighbour a ray enters is the lattice point nearest to it just past the face, and
+    /// it stays in each cell up to the face: checked on random rays against `nearest`.
     #[test]
     fn rays_cross_cells_into_their_nearest_points() {
         let mut seed = 7u64;
