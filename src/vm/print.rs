@@ -134,11 +134,10 @@ impl fmt::Display for Piece {
                     |a: &[[f64; 4]; 4]| -> Vec<String> { a.iter().map(|r| vec4(*r)).collect() };
                 write!(
                     f,
-                    "{:?}-tiled ball |A p + {} - M c| - {}, A rows {}, c the lattice point of q = B p + {}, B rows {}, M rows {}",
+                    "{:?}-tiled ball |M (q - c) + {}| - {}, c the lattice point of q = B p + {}, B rows {}, M rows {}",
                     t.tiling,
-                    vec4(t.b),
+                    vec4(t.off),
                     t.r,
-                    rows(&t.rows).join(" "),
                     vec4(t.at),
                     rows(&t.to).join(" "),
                     rows(&t.m).join(" ")

@@ -19,17 +19,16 @@ pub enum Tiling {
     Grid { limit: [f64; 4] },
 }
 
-/// The ball `|rows p + b - m c| - r` copied to every lattice point `c`, where `p`'s lattice
-/// coordinates are `to p + at`: `m (q - c) + (b - m at)` is the point relative to the copy
-/// at `c`, and `rows = m to`.
+/// The ball `|m (q - c) + off| - r` copied to every lattice point `c`, where `q = to p + at`
+/// are `p`'s lattice coordinates: `m (q - c) + off` is the point relative to the copy at
+/// `c`, and `m to` has orthonormal rows (a distance).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Tiled {
     pub tiling: Tiling,
     pub to: [[f64; 4]; 4],
     pub at: [f64; 4],
     pub m: [[f64; 4]; 4],
-    pub rows: [[f64; 4]; 4],
-    pub b: [f64; 4],
+    pub off: [f64; 4],
     pub r: f64,
 }
 
@@ -41,6 +40,23 @@ pub const CELLS: usize = 64;
 
 /// The pairs of axes: a D4 point's 24 nearest neighbours are `±e_i ± e_j` for each.
 const PAIRS: [(usize, usize); 6] = [(0, 1), (0, 2), (0, 3), (1, 2), (1, 3), (2, 3)];
+
+/// The steps to the neighbour behind each face, up to the sign of the ray's rate: a D4 cell's
+/// twelve (`e_i + e_j`, then `e_i - e_j`, over `PAIRS`), then a box's four (`e_i`).
+const STEPS: [[f64; 4]; 16] = {
+    let mut steps = [[0.0; 4]; 16];
+    let mut k = 0;
+    while k < 6 {
+        let (i, j) = PAIRS[k];
+        steps[k][i] = 1.0;
+        steps[k][j] = 1.0;
+        steps[k + 6][i] = 1.0;
+        steps[k + 6][j] = -1.0;
+        steps[12 + k % 4][k % 4] = 1.0;
+        k += 1;
+    }
+    steps
+};
 
 #[inline(always)]
 fn apply(a: &[[f64; 4]; 4], v: [f64; 4]) -> [f64; 4] {
@@ -60,63 +76,100 @@ impl Tiling {
         }
     }
 
-    /// Where the ray `x + t w` (lattice coordinates relative to the point `c`, from inside its
-    /// cell) leaves the cell, and the step from `c` to the point of the cell it enters
-    /// (infinity and zero if it never leaves).
+    /// What a ray along `w` (in lattice units) needs to leave cells: worked out once per ray,
+    /// since a crossing leaves a few cells per call and each face's rate is the same in all.
     #[inline(always)]
-    fn leave(&self, c: [f64; 4], x: [f64; 4], w: [f64; 4]) -> (f64, [f64; 4]) {
-        let mut out = (f64::INFINITY, [0.0; 4]);
+    fn exits(&self, w: [f64; 4]) -> Exits {
+        // `t = (face - s x) * inv + far`: `inv = 1 / |rate|`, or 0 with `far` infinite where
+        // the ray moves along a face or away from it, so that it is never met (the ray may lie
+        // in the face's plane, where the quotient would be 0 / 0). Array by array, so that it
+        // vectorises.
+        let mut rate = [0.0; 12];
+        let faces = match self {
+            // The face towards the neighbour `c + n` is where `n . x = |n|^2 / 2 = 1`. Of the
+            // four `±e_i ± e_j` of a pair of axes, the ray moves towards two: the signs of
+            // `w_i + w_j` and of `w_i - w_j` say which.
+            Tiling::D4 => {
+                for (k, (i, j)) in PAIRS.into_iter().enumerate() {
+                    (rate[k], rate[k + 6]) = (w[i] + w[j], w[i] - w[j]);
+                }
+                12
+            }
+            Tiling::Grid { .. } => {
+                rate[..4].copy_from_slice(&w);
+                4
+            }
+        };
+        let inv = rate.map(|r| 1.0 / r.abs());
+        Exits {
+            sign: rate.map(|r| if r < 0.0 { -1.0 } else { 1.0 }),
+            inv: std::array::from_fn(|k| if inv[k] < f64::INFINITY { inv[k] } else { 0.0 }),
+            far: std::array::from_fn(|k| {
+                if k < faces && inv[k] < f64::INFINITY {
+                    0.0
+                } else {
+                    f64::INFINITY
+                }
+            }),
+        }
+    }
+
+    /// Where the ray `x + t w` (lattice coordinates relative to the point `c`, from inside its
+    /// cell; `exits` holds what depends on `w`) leaves the cell, and the step from `c` to the
+    /// point of the cell it enters (infinity and zero if it never leaves).
+    #[inline(always)]
+    fn leave(&self, exits: &Exits, c: [f64; 4], x: [f64; 4]) -> (f64, [f64; 4]) {
+        let Exits { sign, inv, far, .. } = exits;
+        // Written without branches (a ray's faces are met in no order a predictor learns),
+        // so that it vectorises.
+        let mut t = [f64::INFINITY; 12];
         match self {
             Tiling::D4 => {
-                // The face towards the neighbour `c + n` is where `n . x = |n|^2 / 2 = 1`. Of
-                // the four `±e_i ± e_j` of a pair of axes, the ray moves towards two: the
-                // signs of `w_i + w_j` and of `w_i - w_j` say which. Written without branches
-                // (a ray's faces are met in no order a predictor learns), so it vectorises.
-                let mut t = [0.0; 12];
-                let mut s = [0.0; 12];
                 for (k, (i, j)) in PAIRS.into_iter().enumerate() {
                     for (h, sj) in [(0, 1.0), (6, -1.0)] {
-                        let rate = w[i] + sj * w[j];
-                        let sign = if rate < 0.0 { -1.0 } else { 1.0 };
-                        s[k + h] = sign;
-                        // A face the ray moves along (or away from) is never met; the ray
-                        // may lie in its plane, where the quotient would be 0 / 0.
-                        let num = 1.0 - sign * (x[i] + sj * x[j]);
-                        t[k + h] = if rate != 0.0 {
-                            num / (sign * rate)
-                        } else {
-                            f64::INFINITY
-                        };
+                        let y = x[i] + sj * x[j];
+                        t[k + h] = (1.0 - sign[k + h] * y) * inv[k + h] + far[k + h];
                     }
-                }
-                let mut best = 0;
-                for k in 1..12 {
-                    best = if t[k] < t[best] { k } else { best };
-                }
-                let ((i, j), sj) = (PAIRS[best % 6], if best < 6 { 1.0 } else { -1.0 });
-                if t[best] < f64::INFINITY {
-                    out.0 = t[best];
-                    (out.1[i], out.1[j]) = (s[best], s[best] * sj);
                 }
             }
             Tiling::Grid { limit } => {
                 for i in 0..4 {
-                    let (face, s) = match w[i] {
-                        r if r > 0.0 && c[i] < limit[i] => (0.5, 1.0),
-                        r if r < 0.0 && c[i] > -limit[i] => (-0.5, -1.0),
-                        _ => continue,
+                    // Open outward at the limits: no face there.
+                    let open = if c[i] * sign[i] >= limit[i] {
+                        f64::INFINITY
+                    } else {
+                        0.0
                     };
-                    let t = (face - x[i]) / w[i];
-                    if t < out.0 {
-                        let mut n = [0.0; 4];
-                        n[i] = s;
-                        out = (t, n);
-                    }
+                    t[i] = (0.5 - sign[i] * x[i]) * inv[i] + far[i] + open;
                 }
             }
         }
-        out
+        // The nearest face, and the first of the faces that near: a tree of `min`s and a
+        // mask, not a chain of compares.
+        let min = |a: f64, b: f64| if b < a { b } else { a };
+        let m: [f64; 4] = std::array::from_fn(|i| min(min(t[i], t[i + 4]), t[i + 8]));
+        let best = min(min(m[0], m[1]), min(m[2], m[3]));
+        let mut n = [0.0; 4];
+        if best < f64::INFINITY {
+            let mask = (0..12).fold(0u32, |m, k| m | (((t[k] == best) as u32) << k));
+            let k = mask.trailing_zeros() as usize;
+            let step = match self {
+                Tiling::D4 => STEPS[k],
+                Tiling::Grid { .. } => STEPS[k + 12],
+            };
+            n = step.map(|v| v * sign[k]);
+        }
+        (best, n)
     }
+}
+
+/// The faces a ray can leave a cell through (`Tiling::exits`), each as the sign of the step
+/// towards it, the inverse of the rate at which the ray closes on it, and infinity for a face
+/// never met (else 0).
+struct Exits {
+    sign: [f64; 12],
+    inv: [f64; 12],
+    far: [f64; 12],
 }
 
 impl Tiled {
@@ -127,24 +180,19 @@ impl Tiled {
         std::array::from_fn(|i| q[i] + self.at[i])
     }
 
-    /// `p` relative to the copy at lattice point `c`, given `u = rows p + b`.
+    /// The point relative to its copy, from its lattice coordinates relative to the copy's
+    /// lattice point: small numbers, whatever the distance from the origin.
     #[inline(always)]
-    fn local(&self, u: [f64; 4], c: [f64; 4]) -> [f64; 4] {
-        let mc = apply(&self.m, c);
-        std::array::from_fn(|i| u[i] - mc[i])
-    }
-
-    /// `rows p + b`.
-    #[inline(always)]
-    fn image(&self, p: [f64; 4]) -> [f64; 4] {
-        let u = apply(&self.rows, p);
-        std::array::from_fn(|i| u[i] + self.b[i])
+    fn local(&self, x: [f64; 4]) -> [f64; 4] {
+        let u = apply(&self.m, x);
+        std::array::from_fn(|i| u[i] + self.off[i])
     }
 
     /// The tiled ball's distance at `p`: to the copy of the cell `p` is in.
     pub fn value(&self, p: [f64; 4]) -> f64 {
-        let c = self.tiling.nearest(self.lattice(p));
-        let u = self.local(self.image(p), c);
+        let q = self.lattice(p);
+        let c = self.tiling.nearest(q);
+        let u = self.local(std::array::from_fn(|i| q[i] - c[i]));
         dot(u, u).sqrt() - self.r
     }
 
@@ -162,9 +210,10 @@ impl Tiled {
     fn cross(&self, p: [f64; 4], d: [f64; 4], (limit, cells): (f64, usize)) -> Meeting {
         let q = self.lattice(p);
         let w = apply(&self.to, d);
-        let (u, along) = (self.image(p), apply(&self.rows, d));
+        let (exits, along) = (self.tiling.exits(w), apply(&self.m, w));
         let mut c = self.tiling.nearest(q);
-        let here = self.local(u, c);
+        let mut x: [f64; 4] = std::array::from_fn(|i| q[i] - c[i]);
+        let here = self.local(x);
         let value = dot(here, here).sqrt() - self.r;
         let mut from = 0.0;
         let meeting = |first, clear, cells| Meeting {
@@ -177,10 +226,9 @@ impl Tiled {
             if from > limit {
                 return meeting(None, from, k);
             }
-            let x = std::array::from_fn(|i| q[i] - c[i]);
-            let (to, n) = self.tiling.leave(c, x, w);
+            let (to, n) = self.tiling.leave(&exits, c, x);
             let to = to.max(from);
-            if let Some((t0, t1)) = super::ball_roots(self.local(u, c), along, self.r) {
+            if let Some((t0, t1)) = super::ball_roots(self.local(x), along, self.r) {
                 let t = t0.max(from);
                 if t <= t1.min(to) {
                     return meeting(Some(t), t, k + 1);
@@ -191,7 +239,9 @@ impl Tiled {
                 return meeting(None, to, k + 1);
             }
             from = to;
+            // Integer steps: `x` stays exact relative to `q - c`.
             c = std::array::from_fn(|i| c[i] + n[i]);
+            x = std::array::from_fn(|i| x[i] - n[i]);
         }
         meeting(None, from, cells)
     }
@@ -207,7 +257,8 @@ mod tests {
     #[test]
     fn rays_along_a_face_still_leave() {
         let (c, x) = ([0.0; 4], [0.5, 0.5, 0.0, 0.2]);
-        let (t, n) = Tiling::D4.leave(c, x, [3e-4, -3e-4, 1.0, 0.0]);
+        let tiling = Tiling::D4;
+        let (t, n) = tiling.leave(&tiling.exits([3e-4, -3e-4, 1.0, 0.0]), c, x);
         assert!(t.is_finite() && t > 0.0, "{t}");
         assert_eq!(n.iter().map(|v| v * v).sum::<f64>(), 2.0);
     }
@@ -234,7 +285,7 @@ mod tests {
                 let w: [f64; 4] = std::array::from_fn(|_| rnd());
                 let c = tiling.nearest(q);
                 let x = std::array::from_fn(|i| q[i] - c[i]);
-                let (t, n) = tiling.leave(c, x, w);
+                let (t, n) = tiling.leave(&tiling.exits(w), c, x);
                 let at = |t: f64| std::array::from_fn(|i| q[i] + t * w[i]);
                 // A D4 cell is bounded: every ray leaves it.
                 assert!(t.is_finite() || tiling != Tiling::D4, "{q:?} {w:?}");

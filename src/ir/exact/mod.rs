@@ -326,15 +326,13 @@ fn form(g: &Graph, id: Id) -> Option<Form> {
     };
     let rows: [[f64; 4]; 4] =
         std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| m[i][k] * to[k][j]).sum()));
-    let b = std::array::from_fn(|i| dot(m[i], at) + off[i]);
     (orthonormal(&rows) && [to, m].iter().flatten().flatten().all(|x| x.is_finite())).then_some(
         Form::Lattice(Box::new(Tiled {
             tiling,
             to,
             at,
             m,
-            rows,
-            b,
+            off,
             r,
         })),
     )
