@@ -13,7 +13,7 @@ use crate::render::lights::{Lights, SphereLight};
 use crate::render::march::{Limits, MarcherKind};
 use crate::render::material::{Layout, Medium, Surface};
 use crate::scene::{Param, Scene};
-use crate::vm::cells::{Cells, Roots};
+use crate::vm::cells::{Cells, Placed, Roots};
 use crate::vm::escape::{Escape, proven_box};
 use glam::{DVec3, DVec4};
 
@@ -83,14 +83,14 @@ impl Frames {
             .collect();
         let (from, to) = self.from_to;
         let camera = FrameCamera::new(from + (to - from) * t, self.fov, &frame.look);
-        let (cells, escape) = cells(
+        let (escape, plan) = regions(
             &program.ir,
             &compiled.bounds,
             &compiled.tiled,
             (camera.position, t),
             self.shot.limits.epsilon,
-            build.marcher,
         );
+        let cells = (build.marcher == MarcherKind::Cells).then(|| plan.build(&program.ir));
         let features = Features {
             interiors: build.general || compiled.ir.interior.is_some(),
         };
@@ -110,7 +110,7 @@ impl Frames {
             probe: None,
         };
         if build.marcher == MarcherKind::Auto {
-            fs.choose_marcher(&self.shot);
+            fs.choose_marcher(&self.shot, || plan.build(&program.ir));
         }
         fs
     }
@@ -171,14 +171,13 @@ fn medium(m: &crate::scene::Material) -> Medium {
 /// the cells found them before they were bounded: around a few hundred copies far apart, the
 /// cells that resolve the epsilon near each are so many that a ray passing them took more
 /// than 2,000 steps, one per cell.
-fn cells(
+fn regions(
     ir: &SceneIr,
     bounds: &[Option<([f64; 4], f64)>],
     tiled: &[bool],
     (camera, t): (DVec4, f64),
     epsilon: f64,
-    marcher: MarcherKind,
-) -> (Option<Cells>, Escape) {
+) -> (Escape, CellsPlan) {
     // The escape proof's box, and the cells' cube.
     let (mut lo, mut hi) = (camera, camera);
     let (mut cube_lo, mut cube_hi) = (camera, camera);
@@ -210,19 +209,36 @@ fn cells(
     let scene = (ir.distance, ir.nearest);
     let escape = Escape::new(&ir.graph, (lo, hi), &distances, (scene, ir.interior), t);
     let (lo, hi) = (cube_lo, cube_hi);
-    if matches!(marcher, MarcherKind::Plain | MarcherKind::Whole) {
-        return (None, escape);
-    }
-    let roots = Roots {
-        scene: (ir.distance, ir.nearest),
-        interior: ir.interior,
-        objects: ir.objects.iter().map(|o| o.distance).collect(),
-    };
     let size = 2.0 * (hi - lo).max_element().max(1.0);
     let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);
-    let cube = (corner, size);
-    let cells = Cells::new(&ir.graph, roots, cube, (&unbounded, &wide), epsilon);
-    (Some(cells), escape)
+    let plan = CellsPlan {
+        cube: (corner, size),
+        unbounded,
+        wide,
+        epsilon,
+    };
+    (escape, plan)
+}
+
+/// What a frame's cells are built over (`Cells::new`): built only for a marcher that uses
+/// them, and under `Auto` only where the probe's first stage cannot rule them out.
+struct CellsPlan {
+    cube: (DVec4, f64),
+    unbounded: Vec<Placed>,
+    wide: Vec<Placed>,
+    epsilon: f64,
+}
+
+impl CellsPlan {
+    fn build(&self, ir: &SceneIr) -> Cells {
+        let roots = Roots {
+            scene: (ir.distance, ir.nearest),
+            interior: ir.interior,
+            objects: ir.objects.iter().map(|o| o.distance).collect(),
+        };
+        let placed = (&self.unbounded[..], &self.wide[..]);
+        Cells::new(&ir.graph, roots, self.cube, placed, self.epsilon)
+    }
 }
 
 /// A placed light with its radiance, read from its material tape (it is constant over the

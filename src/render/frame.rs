@@ -8,7 +8,7 @@ use super::integrator::Stack;
 use super::lights::Lights;
 use super::march::{Field, Limits, MarcherKind};
 use super::material::{Layout, Medium};
-use super::probe::{Choice, Probe};
+use super::probe::{Choice, Probe, Sight};
 use crate::vm::Tape;
 use crate::vm::cells::Cells;
 use crate::vm::escape::Escape;
@@ -123,23 +123,36 @@ pub trait FrameSource: Sync {
 }
 
 impl FrameScene {
-    /// Under [`MarcherKind::Auto`]: probe the frame's rays and drop its cells where marching
-    /// them would not pay (`render::probe`), and the relaxation where plain steps cost less,
-    /// keeping what the probe found.
-    pub fn choose_marcher(&mut self, shot: &Shot) {
+    /// Under [`MarcherKind::Auto`]: probe the frame's rays and give it cells (`cells` builds
+    /// them) only where marching them pays (`render::probe`), and drop the relaxation where
+    /// plain steps cost less, keeping what the probe found. Cells are not built where the
+    /// probe's whole-tape stage alone rules them out: building them was most of a small
+    /// frame's set-up.
+    pub fn choose_marcher(&mut self, shot: &Shot, cells: impl FnOnce() -> Cells) {
         let inside =
             self.interior.is_some() && !Stack::at_camera(self, shot.limits.epsilon).is_empty();
-        let probe = Probe::run(
-            self.field(),
-            &self.camera,
-            &self.objects,
-            (shot.width, shot.height),
-            shot.limits,
+        let sight = Sight {
+            camera: &self.camera,
+            objects: &self.objects,
+            size: (shot.width, shot.height),
+            limits: shot.limits,
             inside,
-        );
-        if !probe.cells_pay() {
-            self.cells = None;
-        }
+        };
+        let probe = match Probe::whole(self.field(), sight) {
+            Some(probe) => probe,
+            None => {
+                let cells = Some(cells());
+                let field = Field {
+                    cells: cells.as_ref(),
+                    ..self.field()
+                };
+                let probe = Probe::through(field, sight);
+                if probe.cells_pay() {
+                    self.cells = cells;
+                }
+                probe
+            }
+        };
         if probe.choice() == Choice::PlainSteps {
             self.relax = false;
         }

@@ -108,94 +108,115 @@ pub struct Probe {
     pub plain: Option<Work>,
 }
 
-impl Probe {
-    /// March the probe on the whole tape of `cells` (a frame's field with cells) and, unless
-    /// that alone shows they cannot pay, through the cells, for an image of `width` x
-    /// `height`; where the whole tape wins, with plain steps too. Camera rays march on the
-    /// interior tape where the camera is `inside` an object that can be entered, as the
-    /// render's do.
-    pub fn run(
-        cells: Field,
-        camera: &FrameCamera,
-        objects: &[FrameObject],
-        (width, height): (u32, u32),
-        limits: Limits,
-        inside: bool,
-    ) -> Probe {
-        let whole = Field {
-            cells: None,
-            ..cells
-        };
+/// Where the probe looks: the frame's camera and objects, the image's size, the marching
+/// limits, and whether the camera is inside an object that can be entered (its rays then
+/// march on the interior tape, as the render's do).
+#[derive(Clone, Copy)]
+pub struct Sight<'a> {
+    pub camera: &'a FrameCamera,
+    pub objects: &'a [FrameObject],
+    pub size: (u32, u32),
+    pub limits: Limits,
+    pub inside: bool,
+}
+
+impl Sight<'_> {
+    /// The probe's camera rays: a grid of pixels, an eighth of the image's columns (at least
+    /// `MIN_COLUMNS`, at most `COLUMNS`).
+    fn rays(&self) -> Vec<Ray> {
+        let (width, height) = self.size;
         let columns = (width / 8).clamp(MIN_COLUMNS, COLUMNS);
         let rows = (columns * height / width.max(1)).clamp(1, COLUMNS);
-        // Rays the whole-tape march would lose crawl at most this long in the probe.
-        let limits = Limits {
-            max_steps: limits.max_steps.min(STEPS),
-            ..limits
-        };
-        let rays: Vec<Ray> = (0..columns * rows)
+        (0..columns * rows)
             .map(|i| Ray {
-                o: camera.position,
-                d: camera.direction(
+                o: self.camera.position,
+                d: self.camera.direction(
                     (i % columns) as f64 + 0.5,
                     (i / columns) as f64 + 0.5,
                     columns,
                     rows,
                 ),
                 tmax: f64::INFINITY,
-                interior: inside,
+                interior: self.inside,
             })
-            .collect();
+            .collect()
+    }
+
+    /// The render's limits, with the probe's step limit: rays the whole-tape march would lose
+    /// crawl at most this long in the probe.
+    fn limits(&self) -> Limits {
+        Limits {
+            max_steps: self.limits.max_steps.min(STEPS),
+            ..self.limits
+        }
+    }
+}
+
+impl Probe {
+    /// The probe's first stage, on the whole tape of `whole` (a frame's field without cells):
+    /// the probe, where that alone shows that cells cannot pay (so they need not be built);
+    /// `None` where the cells must be marched too (`Probe::through`).
+    pub fn whole(whole: Field, sight: Sight) -> Option<Probe> {
         let (mut marcher, mut grad) = (Marcher::default(), Regs { r: vec![] });
-        let alone = whole_alone(
+        let limits = sight.limits();
+        let (work, all) = whole_alone(
             &mut marcher,
             whole,
-            rays.clone(),
-            objects,
+            sight.rays(),
+            sight.objects,
             limits,
             &mut grad,
-        );
-        let (mut probe, all) = match alone {
-            Some((whole, all)) => {
-                let probe = Probe {
-                    cells: None,
-                    whole,
-                    plain: None,
-                };
-                (probe, all)
-            }
-            None => {
-                let never = (usize::MAX, |_: &Work| false);
-                let marched = generations(
-                    &mut marcher,
-                    cells,
-                    rays,
-                    (objects, limits),
-                    &mut grad,
-                    never,
-                );
-                let (cells, all) = marched.expect("the cells' march never gives up");
-                let mut probe = Probe {
-                    cells: Some(cells),
-                    whole: Work::default(),
-                    plain: None,
-                };
-                probe.whole_after_cells(&mut marcher, whole, &all, limits);
-                (probe, all)
-            }
+        )?;
+        let mut probe = Probe {
+            cells: None,
+            whole: work,
+            plain: None,
         };
-        // Relaxed steps lose where they overshoot more than they gain (a slab's planes met
-        // head on): where the whole tape wins, plain steps are measured too.
-        if probe.choice() == Choice::Whole {
+        probe.plain_steps(&mut marcher, whole, &all, limits);
+        Some(probe)
+    }
+
+    /// The probe's second stage, where the first could not decide: through the cells of
+    /// `cells` (a frame's field with cells), then on the whole tape as far as that can win.
+    pub fn through(cells: Field, sight: Sight) -> Probe {
+        let whole = Field {
+            cells: None,
+            ..cells
+        };
+        let (mut marcher, mut grad) = (Marcher::default(), Regs { r: vec![] });
+        let limits = sight.limits();
+        let never = (usize::MAX, |_: &Work| false);
+        let marched = generations(
+            &mut marcher,
+            cells,
+            sight.rays(),
+            (sight.objects, limits),
+            &mut grad,
+            never,
+        );
+        let (cells, all) = marched.expect("the cells' march never gives up");
+        let mut probe = Probe {
+            cells: Some(cells),
+            whole: Work::default(),
+            plain: None,
+        };
+        probe.whole_after_cells(&mut marcher, whole, &all, limits);
+        probe.plain_steps(&mut marcher, whole, &all, limits);
+        probe
+    }
+
+    /// Relaxed steps lose where they overshoot more than they gain (a slab's planes met head
+    /// on): where the whole tape wins, plain steps are measured too.
+    fn plain_steps(&mut self, marcher: &mut Marcher, whole: Field, all: &[Ray], limits: Limits) {
+        if self.choice() == Choice::Whole {
             let plain = Field {
                 relax: false,
                 ..whole
             };
             let mut work = Work::default();
-            march(&mut marcher, plain, &all, limits, &mut vec![], &mut work);
-            probe.plain = Some(work);
+            march(marcher, plain, all, limits, &mut vec![], &mut work);
+            self.plain = Some(work);
         }
-        probe
     }
 
     /// The rays `all` the cells marched, on the whole tape: an eighth of them at a time, and
