@@ -1202,6 +1202,13 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
             "hypersphere(0.7) |> tile(grid(spacing: 1, limit: [3, 3, 3, 3]))",
             true,
         ),
+        // Sparse: rays cross gaps between the copies' reach, and some keep a coordinate.
+        ("hypersphere(0.15) |> tile(d4(1))", false),
+        (
+            "hypersphere(0.2) |> translate([0, 0.1, 0, 0.2]) |> tile(grid(spacing: [1, 2, 1, 1.5], limit: [2, 1, 3, 2])) \
+             |> rotate(xy, 15deg) |> translate([0.5, 0, 0, 0])",
+            false,
+        ),
     ] {
         let scene = compile_text(&format!("object s {{ shape = {shape} }}"));
         let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
@@ -1226,7 +1233,12 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
             );
         }
         for i in 0..1500 {
-            let (p, d) = (random_point(&mut rng, 5.0), random_unit(&mut rng));
+            let (p, mut d) = (random_point(&mut rng, 5.0), random_unit(&mut rng));
+            // A third of the rays keep their w (a slice's camera rays do).
+            if i % 3 == 0 {
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                d = [d[0] / n, d[1] / n, d[2] / n, 0.0];
+            }
             let at = |t: f64| -> [f64; 4] { std::array::from_fn(|a| p[a] + t * d[a]) };
             if field(p) <= 1e-6 {
                 continue;

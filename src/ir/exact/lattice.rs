@@ -30,7 +30,16 @@ pub struct Tiled {
     pub m: [[f64; 4]; 4],
     pub off: [f64; 4],
     pub r: f64,
+    /// The copy's centre relative to its lattice point, in lattice coordinates, and how far
+    /// the copy reaches from it along each axis per unit of radius (infinite where `m` is
+    /// singular): the copy at `c` lies where `|x_i - c_i - centre_i| <= r stretch_i`.
+    centre: [f64; 4],
+    stretch: [f64; 4],
 }
+
+/// How far a lattice coordinate's windows (`Tiled::window`) are widened against rounding, in
+/// lattice units, beside a relative part: a ray advanced to a window's edge is inside it.
+const MARGIN: f64 = 1e-9;
 
 /// The lattice cells a crossing (`Tiled::meet`) goes before it gives up, to start with: a ray
 /// along one of the D4 packing's channels may meet no ball for a long way. The ray goes on
@@ -173,6 +182,72 @@ struct Exits {
 }
 
 impl Tiled {
+    /// The ball `|m (q - c) + off| - r` over `tiling`, where `q = to p + at`.
+    pub fn new(
+        tiling: Tiling,
+        (to, at): ([[f64; 4]; 4], [f64; 4]),
+        (m, off): ([[f64; 4]; 4], [f64; 4]),
+        r: f64,
+    ) -> Tiled {
+        // The ball is `x = m^-1 (v - off)` over `|v| <= r`: centred at `-m^-1 off`, reaching
+        // `r |row_i(m^-1)|` along axis `i`. (The transpose's inverse has those rows as columns.)
+        let inv = glam::DMat4::from_cols_array_2d(&m).inverse();
+        let known = inv.to_cols_array().iter().all(|v| v.is_finite());
+        let centre = std::array::from_fn(|i| -inv.col(i).dot(glam::DVec4::from_array(off)));
+        let stretch = std::array::from_fn(|i| match known {
+            true => inv.col(i).length(),
+            false => f64::INFINITY,
+        });
+        Tiled {
+            tiling,
+            to,
+            at,
+            m,
+            off,
+            r,
+            centre: if known { centre } else { [0.0; 4] },
+            stretch,
+        }
+    }
+
+    /// The ball grown by `k` (its rounding).
+    pub fn grown(&self, k: f64) -> Tiled {
+        Tiled {
+            r: self.r + k,
+            ..*self
+        }
+    }
+
+    /// The first `t >= 0` at which lattice coordinate `i` of the ray `q + t w` is within
+    /// reach of a copy of the ball (of some lattice point's `c_i`), or infinity: a ray that
+    /// keeps a coordinate between the copies' (a slice at `w = 0.3` of small spheres at
+    /// integer `w`) meets none, and one that crosses such gaps meets none in them.
+    #[inline(always)]
+    fn window(&self, i: usize, q: f64, w: f64) -> f64 {
+        let half = self.r * self.stretch[i] + MARGIN * (1.0 + q.abs());
+        let (lo, hi) = (self.centre[i] - half, self.centre[i] + half);
+        let limit = match self.tiling {
+            Tiling::D4 => f64::INFINITY,
+            Tiling::Grid { limit } => limit[i],
+        };
+        // Copies that overlap along the axis leave no gaps (checked first: the D4 packing's
+        // do); else the lattice values whose copies reach `q` now are `c` in `[q - hi, q - lo]`.
+        let gaps = hi - lo < 1.0; // false where NaN (an infinite stretch)
+        if !gaps || (q - hi).ceil().max(-limit) <= (q - lo).floor().min(limit) {
+            return 0.0;
+        }
+        // Else the next one ahead, if there is one.
+        let (c, edge) = match w {
+            w if w > 0.0 => ((q - lo).ceil().max(-limit), lo),
+            w if w < 0.0 => ((q - hi).floor().min(limit), hi),
+            _ => return f64::INFINITY,
+        };
+        match c.abs() <= limit {
+            true => (c + edge - q) / w,
+            false => f64::INFINITY,
+        }
+    }
+
     /// The lattice coordinates of `p`.
     #[inline(always)]
     fn lattice(&self, p: [f64; 4]) -> [f64; 4] {
@@ -215,13 +290,24 @@ impl Tiled {
         let mut x: [f64; 4] = std::array::from_fn(|i| q[i] - c[i]);
         let here = self.local(x);
         let value = dot(here, here).sqrt() - self.r;
-        let mut from = 0.0;
         let meeting = |first, clear, cells| Meeting {
             value,
             first,
             clear,
             cells,
         };
+        // No copy is met before every coordinate is within reach of one: the crossing starts
+        // there, in the cell it is in (`leave` and the roots are along the ray from `q`).
+        let mut from = (0..4).fold(0.0, |t: f64, i| t.max(self.window(i, q[i], w[i])));
+        if from > limit {
+            return meeting(None, from, 0);
+        }
+        if from > 0.0 {
+            c = self
+                .tiling
+                .nearest(std::array::from_fn(|i| q[i] + from * w[i]));
+            x = std::array::from_fn(|i| q[i] - c[i]);
+        }
         for k in 0..cells {
             if from > limit {
                 return meeting(None, from, k);

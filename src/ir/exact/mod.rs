@@ -101,7 +101,7 @@ impl Form {
                 r: r - sign * k,
                 sign,
             },
-            Form::Lattice(t) => Form::Lattice(Box::new(Tiled { r: t.r - k, ..*t })),
+            Form::Lattice(t) => Form::Lattice(Box::new(t.grown(-k))),
         }
     }
 
@@ -327,14 +327,7 @@ fn form(g: &Graph, id: Id) -> Option<Form> {
     let rows: [[f64; 4]; 4] =
         std::array::from_fn(|i| std::array::from_fn(|j| (0..4).map(|k| m[i][k] * to[k][j]).sum()));
     (orthonormal(&rows) && [to, m].iter().flatten().flatten().all(|x| x.is_finite())).then_some(
-        Form::Lattice(Box::new(Tiled {
-            tiling,
-            to,
-            at,
-            m,
-            off,
-            r,
-        })),
+        Form::Lattice(Box::new(Tiled::new(tiling, (to, at), (m, off), r))),
     )
 }
 
