@@ -412,8 +412,10 @@ impl Marcher {
                     // step the more steps it has taken (up to 4 times as many after 8), so
                     // that a ray a hair off one of the D4 packing's channels, which meets a
                     // sphere only some 200,000 units on, mostly gets there within its steps.
-                    // Not more: a ray that meets no copy ever (a slice that misses every
-                    // sphere of a sparse packing) crosses cells until its steps run out.
+                    // Not more: a ray that keeps a lattice coordinate between the copies'
+                    // reach (a slice missing every sphere of a sparse packing) is known to
+                    // meet none (`Tiled::window`), but one a hair off such a slice crosses
+                    // cell after cell until its steps run out.
                     let beyond = past(st.exit(cells, cell, p, r.d), cell);
                     let reach = (beyond.min(r.tmax - st.t), CELLS << (st.steps / 4).min(2));
                     let met = meet(pieces, p - cell.origin, r.d, reach);
