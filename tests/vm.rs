@@ -1202,8 +1202,14 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
             "hypersphere(0.7) |> tile(grid(spacing: 1, limit: [3, 3, 3, 3]))",
             true,
         ),
-        // Sparse: rays cross gaps between the copies' reach, and some keep a coordinate.
+        // Sparse: rays cross gaps between the copies' reach, and some keep a coordinate; one
+        // turned inside its cell, so that its reach along each axis is not the same.
         ("hypersphere(0.15) |> tile(d4(1))", false),
+        (
+            "hypersphere(0.12) |> translate([0.1, 0, 0, 0.05]) |> rotate(xw, 30deg) \
+             |> tile(grid(spacing: [1, 2, 1, 1.5], limit: [3, 2, 3, 2]))",
+            false,
+        ),
         (
             "hypersphere(0.2) |> translate([0, 0.1, 0, 0.2]) |> tile(grid(spacing: [1, 2, 1, 1.5], limit: [2, 1, 3, 2])) \
              |> rotate(xy, 15deg) |> translate([0.5, 0, 0, 0])",
@@ -1234,10 +1240,12 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
         }
         for i in 0..1500 {
             let (p, mut d) = (random_point(&mut rng, 5.0), random_unit(&mut rng));
-            // A third of the rays keep their w (a slice's camera rays do).
-            if i % 3 == 0 {
-                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                d = [d[0] / n, d[1] / n, d[2] / n, 0.0];
+            // A third of the rays keep their w (a slice's camera rays do), and a third change
+            // it slowly (a crossing then starts far along the ray).
+            if i % 3 != 2 {
+                let w = if i % 3 == 0 { 0.0 } else { 0.01 * d[3].signum() };
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() / (1.0 - w * w).sqrt();
+                d = [d[0] / n, d[1] / n, d[2] / n, w];
             }
             let at = |t: f64| -> [f64; 4] { std::array::from_fn(|a| p[a] + t * d[a]) };
             if field(p) <= 1e-6 {

@@ -127,10 +127,10 @@ fn truth<T: Real>(b: bool) -> T {
 pub fn round<T: Real>(x: T) -> T {
     let t = x.trunc();
     let d = x - t;
-    let (half, zero, one) = (T::of(0.5), T::of(0.0), T::of(1.0));
-    let up = if d >= half { one } else { zero };
-    let down = if d <= -half { one } else { zero };
-    t + up - down
+    // Selects of `t` itself, not `t + 0`: that would turn -0 into +0.
+    let half = T::of(0.5);
+    let r = if d >= half { t + T::of(1.0) } else { t };
+    if d <= -half { t - T::of(1.0) } else { r }
 }
 
 #[inline(always)]
@@ -273,6 +273,26 @@ pub fn min_id<T: Real>(best: T, best_id: T, d: T, id: T) -> [T; 2] {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `round` is the standard library's, bit for bit (the sign of zero too), in `f64` and
+    /// `f32`, at ties, beside them and where every number is an integer.
+    #[test]
+    fn round_is_the_standard_round() {
+        let mut x = 0.123_f64;
+        let mut values = vec![0.0, -0.0, 0.5, -0.5, 1.5, -2.5, 0.49999999999999994, -0.3];
+        values.extend([f64::MAX, 4503599627370497.0, -4503599627370497.5, 1e300]);
+        values.extend([f64::INFINITY, f64::NEG_INFINITY]);
+        for _ in 0..10_000 {
+            x = (x * 7919.0 + 0.37).fract();
+            values.push((x - 0.5) * 64.0);
+        }
+        for v in values {
+            assert_eq!(round(v).to_bits(), v.round().to_bits(), "{v}");
+            let f = v as f32;
+            assert_eq!(round(f).to_bits(), f.round().to_bits(), "{f}");
+        }
+        assert!(round(f64::NAN).is_nan());
+    }
 
     fn dist(a: [f64; 4], b: [f64; 4]) -> f64 {
         (0..4).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt()

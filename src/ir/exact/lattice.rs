@@ -297,39 +297,43 @@ impl Tiled {
             cells,
         };
         // No copy is met before every coordinate is within reach of one: the crossing starts
-        // there, in the cell it is in (`leave` and the roots are along the ray from `q`).
-        let mut from = (0..4).fold(0.0, |t: f64, i| t.max(self.window(i, q[i], w[i])));
-        if from > limit {
-            return meeting(None, from, 0);
+        // there, from the point it is at (not from `q`, which may be far behind: the roots
+        // of a copy seen from afar have no digits left), and its times are offset by `skip`.
+        let skip = (0..4).fold(0.0, |t: f64, i| t.max(self.window(i, q[i], w[i])));
+        if skip > limit {
+            return meeting(None, skip, 0);
         }
-        if from > 0.0 {
-            c = self
-                .tiling
-                .nearest(std::array::from_fn(|i| q[i] + from * w[i]));
+        if skip > 0.0 {
+            let q = std::array::from_fn(|i| q[i] + skip * w[i]);
+            c = self.tiling.nearest(q);
             x = std::array::from_fn(|i| q[i] - c[i]);
         }
+        let shifted =
+            |t: Option<f64>, clear: f64, cells| meeting(t.map(|t| t + skip), clear + skip, cells);
+        let limit = limit - skip;
+        let mut from = 0.0;
         for k in 0..cells {
             if from > limit {
-                return meeting(None, from, k);
+                return shifted(None, from, k);
             }
             let (to, n) = self.tiling.leave(&exits, c, x);
             let to = to.max(from);
             if let Some((t0, t1)) = super::ball_roots(self.local(x), along, self.r) {
                 let t = t0.max(from);
                 if t <= t1.min(to) {
-                    return meeting(Some(t), t, k + 1);
+                    return shifted(Some(t), t, k + 1);
                 }
             }
             // A grid's end cell, left along no axis: nothing more to meet.
             if to == f64::INFINITY {
-                return meeting(None, to, k + 1);
+                return shifted(None, to, k + 1);
             }
             from = to;
-            // Integer steps: `x` stays exact relative to `q - c`.
+            // Integer steps: `x` stays `q - c` to within a rounding.
             c = std::array::from_fn(|i| c[i] + n[i]);
             x = std::array::from_fn(|i| x[i] - n[i]);
         }
-        meeting(None, from, cells)
+        shifted(None, from, cells)
     }
 }
 
