@@ -1243,7 +1243,11 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
             // A third of the rays keep their w (a slice's camera rays do), and a third change
             // it slowly (a crossing then starts far along the ray).
             if i % 3 != 2 {
-                let w = if i % 3 == 0 { 0.0 } else { 0.01 * d[3].signum() };
+                let w = if i % 3 == 0 {
+                    0.0
+                } else {
+                    0.01 * d[3].signum()
+                };
                 let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt() / (1.0 - w * w).sqrt();
                 d = [d[0] / n, d[1] / n, d[2] / n, w];
             }
