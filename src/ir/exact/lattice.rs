@@ -191,13 +191,15 @@ impl Tiled {
     ) -> Tiled {
         // The ball is `x = m^-1 (v - off)` over `|v| <= r`: centred at `-m^-1 off`, reaching
         // `r |row_i(m^-1)|` along axis `i`. (The transpose's inverse has those rows as columns.)
+        // A singular `m` (a projection) reaches for ever: nothing is skipped.
         let inv = glam::DMat4::from_cols_array_2d(&m).inverse();
-        let known = inv.to_cols_array().iter().all(|v| v.is_finite());
-        let centre = std::array::from_fn(|i| -inv.col(i).dot(glam::DVec4::from_array(off)));
-        let stretch = std::array::from_fn(|i| match known {
-            true => inv.col(i).length(),
-            false => f64::INFINITY,
-        });
+        let (centre, stretch) = match inv.to_cols_array().iter().all(|v| v.is_finite()) {
+            true => (
+                std::array::from_fn(|i| -inv.col(i).dot(glam::DVec4::from_array(off))),
+                std::array::from_fn(|i| inv.col(i).length()),
+            ),
+            false => ([0.0; 4], [f64::INFINITY; 4]),
+        };
         Tiled {
             tiling,
             to,
@@ -205,7 +207,7 @@ impl Tiled {
             m,
             off,
             r,
-            centre: if known { centre } else { [0.0; 4] },
+            centre,
             stretch,
         }
     }
