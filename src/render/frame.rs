@@ -135,18 +135,19 @@ impl FrameScene {
             camera: &self.camera,
             objects: &self.objects,
             size: (shot.width, shot.height),
+            spp: shot.spp,
             limits: shot.limits,
             inside,
         };
         let probe = match Probe::whole(self.field(), sight) {
-            Some(probe) => probe,
-            None => {
+            Ok(probe) => probe,
+            Err(first) => {
                 let cells = Some(cells());
                 let field = Field {
                     cells: cells.as_ref(),
                     ..self.field()
                 };
-                let probe = Probe::through(field, sight);
+                let probe = Probe::through(field, sight, first);
                 if probe.cells_pay() {
                     self.cells = cells;
                 }

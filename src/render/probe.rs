@@ -46,6 +46,10 @@ pub struct Work {
     /// Rays that took at least a quarter of the step limit, or ran out: crawling rays
     /// (grazing a surface) that a bigger image, with more such rays, loses to the limit.
     pub strained: u64,
+    /// Graph nodes that pruning read and built for the cells the rays reached first
+    /// (`Cells::built`; 0 on the whole tape): in the probe's result, what the render would
+    /// build per probe's worth of its rays (`Building::per_probe`).
+    pub built: f64,
 }
 
 impl Work {
@@ -56,6 +60,7 @@ impl Work {
             + w.instruction * self.instructions as f64
             + w.bounded * self.bounded as f64
             + w.walked * self.walked as f64
+            + w.built * self.built
     }
 }
 
@@ -77,7 +82,15 @@ struct Weights {
     instruction: f64,
     bounded: f64,
     walked: f64,
+    built: f64,
 }
+
+/// A graph node that pruning reads or builds for a new cell (`Cells::built`), with the rest
+/// of building the cell (bounds, exact pieces, tapes): 0.3 to 0.65 us, timed as the probe's
+/// march through the cells of a union of 1,024 spheres (0.29 us a node, 240,000 nodes) and of
+/// four generated scenes at scale 1e4 that build cells for nearly every step (0.55 to 0.67
+/// us, 190,000 to 510,000 nodes), where building was nearly all of the march.
+const BUILT: f64 = 500.0;
 
 const CELLS: Weights = Weights {
     ray: 107.0,
@@ -85,6 +98,7 @@ const CELLS: Weights = Weights {
     instruction: 0.77,
     bounded: 19.0,
     walked: WALKED,
+    built: BUILT,
 };
 
 const WHOLE: Weights = Weights {
@@ -93,6 +107,7 @@ const WHOLE: Weights = Weights {
     instruction: 0.16,
     bounded: 21.0,
     walked: WALKED,
+    built: 0.0,
 };
 
 /// The probe's outcome: what each marcher's march of it cost (as far as it went: the
@@ -108,26 +123,33 @@ pub struct Probe {
     pub plain: Option<Work>,
 }
 
-/// Where the probe looks: the frame's camera and objects, the image's size, the marching
-/// limits, and whether the camera is inside an object that can be entered (its rays then
-/// march on the interior tape, as the render's do).
+/// Where the probe looks: the frame's camera and objects, the image's size and samples per
+/// pixel, the marching limits, and whether the camera is inside an object that can be entered
+/// (its rays then march on the interior tape, as the render's do).
 #[derive(Clone, Copy)]
 pub struct Sight<'a> {
     pub camera: &'a FrameCamera,
     pub objects: &'a [FrameObject],
     pub size: (u32, u32),
+    pub spp: u32,
     pub limits: Limits,
     pub inside: bool,
 }
 
 impl Sight<'_> {
     /// The probe's camera rays: a grid of pixels, an eighth of the image's columns (at least
-    /// `MIN_COLUMNS`, at most `COLUMNS`).
+    /// `MIN_COLUMNS`, at most `COLUMNS`), in an order that spreads every run of them over the
+    /// image (a golden-ratio stride through the grid): the first few, by which a stage may
+    /// give up, are not the top rows' sky, and each doubling of them doubles their density.
     fn rays(&self) -> Vec<Ray> {
         let (width, height) = self.size;
         let columns = (width / 8).clamp(MIN_COLUMNS, COLUMNS);
         let rows = (columns * height / width.max(1)).clamp(1, COLUMNS);
-        (0..columns * rows)
+        let n = (columns * rows) as usize;
+        let coprime = |k: &usize| (2..=*k).all(|f| !k.is_multiple_of(f) || !n.is_multiple_of(f));
+        let stride = (n * 618 / 1000..).find(coprime).expect("n + 1 is coprime");
+        (0..n)
+            .map(|k| (k * stride % n) as u32)
             .map(|i| Ray {
                 o: self.camera.position,
                 d: self.camera.direction(
@@ -155,46 +177,86 @@ impl Sight<'_> {
 impl Probe {
     /// The probe's first stage, on the whole tape of `whole` (a frame's field without cells):
     /// the probe, where that alone shows that cells cannot pay (so they need not be built);
-    /// `None` where the cells must be marched too (`Probe::through`).
-    pub fn whole(whole: Field, sight: Sight) -> Option<Probe> {
-        let (mut marcher, mut grad) = (Marcher::default(), Regs { r: vec![] });
-        let limits = sight.limits();
-        let (work, all) = whole_alone(
+    /// else what the whole tape's march cost as far as it went, and the cells must be marched
+    /// too (`Probe::through`).
+    pub fn whole(whole: Field, sight: Sight) -> Result<Probe, Work> {
+        let mut marcher = Marcher::default();
+        let (work, all) = whole_alone(&mut marcher, whole, sight)?;
+        Ok(Probe::on_whole(
             &mut marcher,
             whole,
-            sight.rays(),
-            sight.objects,
-            limits,
-            &mut grad,
-        )?;
+            (work, &all),
+            sight.limits(),
+        ))
+    }
+
+    /// The probe where the cells are not marched: the whole tape's march (`work`, of the rays
+    /// `all`), and plain steps where they may cost less.
+    fn on_whole(
+        marcher: &mut Marcher,
+        whole: Field,
+        (work, all): (Work, &[Ray]),
+        limits: Limits,
+    ) -> Probe {
         let mut probe = Probe {
             cells: None,
             whole: work,
             plain: None,
         };
-        probe.plain_steps(&mut marcher, whole, &all, limits);
-        Some(probe)
+        probe.plain_steps(marcher, whole, all, limits);
+        probe
     }
 
-    /// The probe's second stage, where the first could not decide: through the cells of
-    /// `cells` (a frame's field with cells), then on the whole tape as far as that can win.
-    pub fn through(cells: Field, sight: Sight) -> Probe {
+    /// The probe's second stage, where the first could not decide (its march of the whole tape
+    /// cost `first` as far as it went): through the cells of `cells` (a frame's field with
+    /// cells), then on the whole tape as far as that can win. Cells whose building alone
+    /// would cost the render more than `WORSE` times the whole tape's march (at the first
+    /// stage's cost per ray) are given up as soon as the camera rays show it, and so are
+    /// cells whose building in the probe has cost more than `BUDGET` of the frame's camera
+    /// rays on the whole tape; the whole tape is then marched alone.
+    pub fn through(cells: Field, sight: Sight, first: Work) -> Probe {
         let whole = Field {
             cells: None,
             ..cells
         };
-        let (mut marcher, mut grad) = (Marcher::default(), Regs { r: vec![] });
+        let mut marcher = Marcher::default();
         let limits = sight.limits();
-        let never = (usize::MAX, |_: &Work| false);
+        // The camera rays a quarter at a time (each run of them spread over the image): what
+        // the second quarter builds beside what the first did says how much the render's
+        // denser rays share cells.
+        let camera = sight.rays();
+        let after = std::cell::RefCell::new(vec![]);
+        let samples = sight.size.0 as f64 * sight.size.1 as f64 * sight.spp as f64;
+        let building = || {
+            let after = after.borrow();
+            Building {
+                first: after[0],
+                second: after.get(1).map_or(0.0, |b| b - after[0]),
+                rays: camera.len() as f64,
+                samples,
+            }
+        };
+        let per_ray = first.cost(&WHOLE) / first.rays.max(1) as f64;
+        let give_up = |work: &Work| {
+            after.borrow_mut().push(work.built);
+            let spent = work.built * CELLS.built;
+            let built = building().per_probe(work.built) * CELLS.built;
+            spent > BUDGET * per_ray * samples
+                || (after.borrow().len() >= 2 && built > WORSE * per_ray * work.rays as f64)
+        };
         let marched = generations(
             &mut marcher,
             cells,
-            sight.rays(),
-            (sight.objects, limits),
-            &mut grad,
-            never,
+            camera.clone(),
+            sight,
+            (camera.len().div_ceil(4), give_up),
         );
-        let (cells, all) = marched.expect("the cells' march never gives up");
+        let Ok((mut cells, all)) = marched else {
+            let (work, all) = generations(&mut marcher, whole, camera, sight, NEVER)
+                .expect("a march that never gives up");
+            return Probe::on_whole(&mut marcher, whole, (work, &all), limits);
+        };
+        cells.built = building().per_probe(cells.built);
         let mut probe = Probe {
             cells: Some(cells),
             whole: Work::default(),
@@ -277,6 +339,37 @@ impl Probe {
     }
 }
 
+/// How much of the cells the probe built the render would build again, per probe's worth of
+/// its rays: a probe of few rays builds cells a render of many shares (a dense union's), or
+/// builds them for nearly every ray (where cells split to resolve the epsilon at every step of
+/// a scene far larger than it), and building them was then all of the render (a generated
+/// scene at scale 1e4: 47 s through the cells, 0.2 s on the whole tape).
+struct Building {
+    /// Nodes the first quarter of the camera rays built, then the second.
+    first: f64,
+    second: f64,
+    /// The probe's camera rays, and the frame's samples.
+    rays: f64,
+    samples: f64,
+}
+
+impl Building {
+    /// The nodes the render would build per probe's worth of its rays, from the `total` the
+    /// probe built: each doubling of the rays' density builds `1 + s` times as much as the
+    /// last, `s` the share the second quarter of the camera rays built beside the first (1 where
+    /// no ray shares a cell, 0 where the first built every cell), up to the render's
+    /// `samples / rays` times the probe's density.
+    fn per_probe(&self, total: f64) -> f64 {
+        let share = match self.first > 0.0 {
+            true => (self.second / self.first).clamp(0.0, 1.0),
+            false if self.second > 0.0 => 1.0,
+            false => 0.0,
+        };
+        let denser = (self.samples / self.rays.max(1.0)).max(1.0);
+        total * (1.0 + share).powf(denser.log2()) / denser
+    }
+}
+
 /// What the probe chose for a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Choice {
@@ -302,61 +395,69 @@ impl Choice {
     }
 }
 
-/// The probe on the whole tape alone, from the camera rays `rays`, where it shows that the cells
+/// The probe on the whole tape alone, from the camera rays, where it shows that the cells
 /// cannot pay: their march costs at least their set-up of each ray (`CELLS.ray`), and the
 /// whole tape's costs less in all (without many crawling rays, which would choose the cells
 /// for steps). Building and marching the cells was up to 6% of a small frame's render
 /// (0.6 ms of 9 for a generated scene at 96 x 72, 4 spp) where the whole tape then won. (The
 /// cells' bounces follow their own hits, so their ray count may differ a little: the bound
 /// is the model's, not exact.)
-/// Marched `CHUNK` rays at a time, it gives up (`None`) as soon as it costs more.
+/// Marched `CHUNK` rays at a time, it gives up as soon as it costs more, with what it cost
+/// so far.
 fn whole_alone(
     marcher: &mut Marcher,
     whole: Field,
-    rays: Vec<Ray>,
-    objects: &[FrameObject],
-    limits: Limits,
-    grad: &mut Regs<Dual, LANES>,
-) -> Option<(Work, Vec<Ray>)> {
+    sight: Sight,
+) -> Result<(Work, Vec<Ray>), Work> {
     let give_up = |work: &Work| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
-    let (work, all) = generations(
-        marcher,
-        whole,
-        rays,
-        (objects, limits),
-        grad,
-        (CHUNK, give_up),
-    )?;
-    (work.strained <= work.rays / 256).then_some((work, all))
+    let (work, all) = generations(marcher, whole, sight.rays(), sight, (CHUNK, give_up))?;
+    match work.strained <= work.rays / 256 {
+        true => Ok((work, all)),
+        false => Err(work),
+    }
 }
+
+/// Cells whose building alone would cost the render this many times the whole tape's march
+/// are not marched to the end of the probe (`Probe::through`): they cannot pay.
+const WORSE: f64 = 2.0;
+
+/// How much the probe may spend building cells, as a share of the march of the frame's camera
+/// rays on the whole tape (modelled at the first stage's cost per ray): beyond it, the cells
+/// have already cost more than the whole tape would, and a small frame of a scene whose cells
+/// keep splitting (a generated scene at scale 1e4 whose plain render takes 0.04 s) is not
+/// held up by a probe that builds them for longer than the render takes.
+const BUDGET: f64 = 1.0;
+
+/// A march of the probe that takes its rays all at once and never gives up.
+const NEVER: (usize, fn(&Work) -> bool) = (usize::MAX, |_| false);
 
 /// The probe's rays on `field`: the camera rays `rays`, then `BOUNCES` generations of mirror
 /// bounces from their hits, `chunk` rays per march; what that cost and every ray marched, or
-/// `None` as soon as `give_up` says so of the cost so far.
+/// what it cost so far as soon as `give_up` says so of it.
 fn generations(
     marcher: &mut Marcher,
     field: Field,
     mut rays: Vec<Ray>,
-    (objects, limits): (&[FrameObject], Limits),
-    grad: &mut Regs<Dual, LANES>,
+    sight: Sight,
     (chunk, give_up): (usize, impl Fn(&Work) -> bool),
-) -> Option<(Work, Vec<Ray>)> {
+) -> Result<(Work, Vec<Ray>), Work> {
     let (mut work, mut hits, mut found, mut all) = (Work::default(), vec![], vec![], vec![]);
+    let (limits, mut grad) = (sight.limits(), Regs { r: vec![] });
     for generation in 0..=BOUNCES {
         found.clear();
         for part in rays.chunks(chunk) {
             march(marcher, field, part, limits, &mut hits, &mut work);
             if give_up(&work) {
-                return None;
+                return Err(work);
             }
             found.extend_from_slice(&hits);
         }
         all.extend_from_slice(&rays);
         if generation < BOUNCES {
-            rays = bounce(&rays, &found, objects, grad, limits);
+            rays = bounce(&rays, &found, sight.objects, &mut grad, limits);
         }
     }
-    Some((work, all))
+    Ok((work, all))
 }
 
 /// Rays the whole tape's march of the probe takes at a time before it checks its cost.
@@ -371,12 +472,15 @@ fn march(
     hits: &mut Vec<Hit>,
     work: &mut Work,
 ) {
+    let built = || field.cells.map_or(0, |c| c.built());
     let before = (
         marcher.instructions,
         marcher.proofs.bounded,
         marcher.proofs.walked,
+        built(),
     );
     marcher.march(field, rays, limits, hits);
+    work.built += (built() - before.3) as f64;
     work.rays += rays.len() as u64;
     work.instructions += marcher.instructions - before.0;
     work.bounded += marcher.proofs.bounded - before.1;
@@ -420,4 +524,39 @@ fn bounce(
         });
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Where no ray shares a cell the render builds per ray what the probe did; where the
+    /// first quarter built every cell, the probe's build is spread over the render's rays;
+    /// in between, each doubling of density builds `1 + s` times as much again.
+    #[test]
+    fn building_extrapolates_by_the_share_of_new_cells() {
+        let at = |first, second| Building {
+            first,
+            second,
+            rays: 100.0,
+            samples: 6400.0,
+        };
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1.0);
+        assert!(close(at(50.0, 50.0).per_probe(300.0), 300.0));
+        assert!(close(at(50.0, 80.0).per_probe(300.0), 300.0));
+        assert!(close(at(50.0, 0.0).per_probe(300.0), 300.0 / 64.0));
+        // 64 times the density: six doublings of 1.5 times as much.
+        assert!(close(
+            at(40.0, 20.0).per_probe(300.0),
+            300.0 * 1.5f64.powi(6) / 64.0
+        ));
+        assert!(close(at(0.0, 5.0).per_probe(300.0), 300.0));
+        assert!(close(at(0.0, 0.0).per_probe(0.0), 0.0));
+        // A frame with fewer samples than the probe has rays builds no more than it.
+        let small = Building {
+            samples: 10.0,
+            ..at(50.0, 50.0)
+        };
+        assert!(close(small.per_probe(300.0), 300.0));
+    }
 }
