@@ -56,7 +56,7 @@ pub struct BenchArgs {
     costs: bool,
     /// Time the default marcher against `--marcher plain` on the marcher corpus (the five
     /// examples, sphere unions of 16 and 1024, a custom field, a tiling, a room of rounded
-    /// boxes, a turned slab and generated scenes), paired and alternating, and print each
+    /// boxes, a turned slab, far glass and generated scenes), paired and alternating, and print each
     /// scene's ratio (default / plain) and their geometric mean. Run it from the repository
     /// root. --repeats sets the least pairs of renders of each (default 3; a scene takes more, up to
     /// 31, until its default renders add up to half a second), --threads the threads (default 2).

@@ -474,7 +474,7 @@ fn the_plot_marks_the_front_and_writes_a_png() {
 fn every_marcher_corpus_scene_compiles() {
     use hyperslice::sweep::corpus;
     let entries = corpus::entries(20);
-    assert_eq!(entries.len(), 31);
+    assert_eq!(entries.len(), 32);
     for e in &entries {
         let scene = e.scene(std::path::Path::new(".")).expect(&e.name);
         assert_eq!(

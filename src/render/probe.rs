@@ -53,6 +53,12 @@ pub struct Work {
 }
 
 impl Work {
+    /// Whether more than 1 in 256 of its rays crawled (`strained`): rays a render would lose
+    /// to the step limit.
+    fn crawls(&self) -> bool {
+        self.strained > self.rays / 256
+    }
+
     /// Marching time in nanoseconds, modelled from the counts with one marcher's weights.
     fn cost(&self, w: &Weights) -> f64 {
         w.ray * self.rays as f64
@@ -114,8 +120,8 @@ const WHOLE: Weights = Weights {
 /// whole-tape march stops once it costs more than the cells').
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Probe {
-    /// What marching through the cells cost; `None` where they were not marched, the whole
-    /// tape's march alone showing that they cannot pay.
+    /// What marching through the cells cost; `None` where they were not marched (the whole
+    /// tape's march alone showing that they cannot pay) or given up (`Probe::through`).
     pub cells: Option<Work>,
     /// What marching the whole tape cost, as far as it went.
     pub whole: Work,
@@ -209,11 +215,13 @@ impl Probe {
 
     /// The probe's second stage, where the first could not decide (its march of the whole tape
     /// cost `first` as far as it went): through the cells of `cells` (a frame's field with
-    /// cells), then on the whole tape as far as that can win. Cells whose building alone
-    /// would cost the render more than `WORSE` times the whole tape's march (at the first
-    /// stage's cost per ray) are given up as soon as the camera rays show it, and so are
-    /// cells whose building in the probe has cost more than `BUDGET` of the frame's camera
-    /// rays on the whole tape; the whole tape is then marched alone.
+    /// cells), then on the whole tape as far as that can win. After each chunk of rays from
+    /// the second on, cells whose building alone would cost the render more than `WORSE`
+    /// times the whole tape's march (at the first stage's cost per ray) are given up, and so
+    /// are cells whose building in the probe has cost more than `BUDGET` of the frame's
+    /// camera rays on the whole tape; the whole tape is then marched alone. Not where the
+    /// first stage's rays crawled: the cells may be what keeps those rays within the step
+    /// limit (`Choice::CellsForSteps`), whatever they cost.
     pub fn through(cells: Field, sight: Sight, first: Work) -> Probe {
         let whole = Field {
             cells: None,
@@ -227,22 +235,26 @@ impl Probe {
         let camera = sight.rays();
         let after = std::cell::RefCell::new(vec![]);
         let samples = sight.size.0 as f64 * sight.size.1 as f64 * sight.spp as f64;
-        let building = || {
+        // The nodes built so far came from this many of the camera rays (and their bounces).
+        let building = |camera_rays: u64| {
             let after = after.borrow();
             Building {
                 first: after[0],
                 second: after.get(1).map_or(0.0, |b| b - after[0]),
-                rays: camera.len() as f64,
+                rays: camera_rays as f64,
                 samples,
             }
         };
         let per_ray = first.cost(&WHOLE) / first.rays.max(1) as f64;
+        let crawled = first.crawls();
         let give_up = |work: &Work| {
             after.borrow_mut().push(work.built);
             let spent = work.built * CELLS.built;
-            let built = building().per_probe(work.built) * CELLS.built;
-            spent > BUDGET * per_ray * samples
-                || (after.borrow().len() >= 2 && built > WORSE * per_ray * work.rays as f64)
+            let marched = work.rays.min(camera.len() as u64);
+            let built = building(marched).per_probe(work.built) * CELLS.built;
+            !crawled
+                && (spent > BUDGET * per_ray * samples
+                    || (after.borrow().len() >= 2 && built > WORSE * per_ray * work.rays as f64))
         };
         let marched = generations(
             &mut marcher,
@@ -256,7 +268,7 @@ impl Probe {
                 .expect("a march that never gives up");
             return Probe::on_whole(&mut marcher, whole, (work, &all), limits);
         };
-        cells.built = building().per_probe(cells.built);
+        cells.built = building(camera.len() as u64).per_probe(cells.built);
         let mut probe = Probe {
             cells: Some(cells),
             whole: Work::default(),
@@ -411,9 +423,9 @@ fn whole_alone(
 ) -> Result<(Work, Vec<Ray>), Work> {
     let give_up = |work: &Work| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
     let (work, all) = generations(marcher, whole, sight.rays(), sight, (CHUNK, give_up))?;
-    match work.strained <= work.rays / 256 {
-        true => Ok((work, all)),
-        false => Err(work),
+    match work.crawls() {
+        false => Ok((work, all)),
+        true => Err(work),
     }
 }
 
@@ -422,7 +434,8 @@ fn whole_alone(
 const WORSE: f64 = 2.0;
 
 /// How much the probe may spend building cells, as a share of the march of the frame's camera
-/// rays on the whole tape (modelled at the first stage's cost per ray): beyond it, the cells
+/// rays on the whole tape (modelled at the first stage's cost per probe ray, which counts its
+/// bounces where it marched them): beyond it, the cells
 /// have already cost more than the whole tape would, and a small frame of a scene whose cells
 /// keep splitting (a generated scene at scale 1e4 whose plain render takes 0.04 s) is not
 /// held up by a probe that builds them for longer than the render takes.

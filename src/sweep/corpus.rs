@@ -2,7 +2,8 @@
 //! plain one (`--marcher plain`, whole-tape sphere tracing in the same binary), in wall clock,
 //! paired and alternating, on scenes wider than the examples: the five examples, sphere unions
 //! of 16 and 1024, a custom `sdf` field of 625 spheres, a grid tiling, a room of rounded boxes,
-//! a turned slab, and generated scenes (`crate::generate`). Each scene's ratio is the median
+//! a turned slab, glass and a sphere seen from 3e4 away (whose cells keep splitting), and
+//! generated scenes (`crate::generate`). Each scene's ratio is the median
 //! over its pairs of the default's time over plain's; a ratio above 1 means the default
 //! marcher is slower there. Short scenes take more pairs (`measure`).
 
@@ -43,7 +44,7 @@ type FileEntry = (
     u32,
 );
 
-const FILES: [FileEntry; 11] = [
+const FILES: [FileEntry; 12] = [
     ("d4_packing", "examples/d4_packing.4ds", &[], (96, 72), 2, 4),
     ("room", "examples/room.4ds", &[], (96, 72), 2, 4),
     ("glass_box", "examples/glass_box.4ds", &[], (96, 72), 2, 4),
@@ -96,6 +97,14 @@ const FILES: [FileEntry; 11] = [
         (128, 128),
         1,
         1,
+    ),
+    (
+        "far_glass",
+        "benches/scenes/far_glass.4ds",
+        &[],
+        (96, 72),
+        1,
+        4,
     ),
 ];
 
