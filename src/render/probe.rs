@@ -249,12 +249,17 @@ impl Probe {
         let crawled = first.crawls();
         let give_up = |work: &Work| {
             after.borrow_mut().push(work.built);
+            if crawled {
+                return false;
+            }
             let spent = work.built * CELLS.built;
-            let marched = work.rays.min(camera.len() as u64);
-            let built = building(marched).per_probe(work.built) * CELLS.built;
-            !crawled
-                && (spent > BUDGET * per_ray * samples
-                    || (after.borrow().len() >= 2 && built > WORSE * per_ray * work.rays as f64))
+            // The share `s` is known once the second quarter is marched.
+            let worse = after.borrow().len() >= 2 && {
+                let marched = work.rays.min(camera.len() as u64);
+                let built = building(marched).per_probe(work.built) * CELLS.built;
+                built > WORSE * per_ray * work.rays as f64
+            };
+            spent > BUDGET * per_ray * samples || worse
         };
         let marched = generations(
             &mut marcher,
@@ -360,7 +365,8 @@ struct Building {
     /// Nodes the first quarter of the camera rays built, then the second.
     first: f64,
     second: f64,
-    /// The probe's camera rays, and the frame's samples.
+    /// The camera rays whose march (with their bounces) built what is extrapolated, and the
+    /// frame's samples.
     rays: f64,
     samples: f64,
 }
@@ -368,8 +374,8 @@ struct Building {
 impl Building {
     /// The nodes the render would build per probe's worth of its rays, from the `total` the
     /// probe built: each doubling of the rays' density builds `1 + s` times as much as the
-    /// last, `s` the share the second quarter of the camera rays built beside the first (1 where
-    /// no ray shares a cell, 0 where the first built every cell), up to the render's
+    /// last, `s` the share the second quarter of the camera rays built beside the first (1
+    /// where no ray shares a cell, 0 where the first built every cell), up to the render's
     /// `samples / rays` times the probe's density.
     fn per_probe(&self, total: f64) -> f64 {
         let share = match self.first > 0.0 {
@@ -435,10 +441,10 @@ const WORSE: f64 = 2.0;
 
 /// How much the probe may spend building cells, as a share of the march of the frame's camera
 /// rays on the whole tape (modelled at the first stage's cost per probe ray, which counts its
-/// bounces where it marched them): beyond it, the cells
-/// have already cost more than the whole tape would, and a small frame of a scene whose cells
-/// keep splitting (a generated scene at scale 1e4 whose plain render takes 0.04 s) is not
-/// held up by a probe that builds them for longer than the render takes.
+/// bounces where it marched them): beyond it, the cells have already cost more than the whole
+/// tape would, and a small frame of a scene whose cells keep splitting (a generated scene at
+/// scale 1e4 whose plain render takes 0.04 s) is not held up by a probe that builds them for
+/// longer than the render takes.
 const BUDGET: f64 = 1.0;
 
 /// A march of the probe that takes its rays all at once and never gives up.
