@@ -628,6 +628,9 @@ fn render(args: &RenderArgs, scene: Scene) -> hyperslice::error::Result<()> {
 
 /// Say which files were written.
 fn report_written(written: &output::Written) {
+    if let Some(psnr) = written.gif_psnr {
+        eprintln!("GIF quantisation: PSNR {psnr:.1} dB against the 8-bit frames");
+    }
     match written.files.as_slice() {
         [] => {}
         [one] => eprintln!("wrote {}", one.display()),
@@ -714,9 +717,6 @@ fn summary(args: &RenderArgs, scene: &Scene, t: &Finished) {
             if s.dropped == 1 { "" } else { "s" },
             if s.dropped == 1 { "was" } else { "were" }
         );
-    }
-    if let Some(psnr) = written.gif_psnr {
-        eprintln!("GIF quantisation: PSNR {psnr:.1} dB against the 8-bit frames");
     }
     if args.scene.message_format == crate::MessageFormat::Json {
         let stats = serde_json::json!({

@@ -2,6 +2,7 @@
 //! factor, normal, position, footprints, noise variance), computed once in `f64`
 //! (`prepare`) and stored as `f32` planes (`pack`) for the vectorised taps.
 
+use super::kernel::CUTOFF;
 use super::{AtrousOptions, B3, offset, term};
 use crate::denoise::consistent;
 use crate::film::Film;
@@ -107,7 +108,10 @@ fn is_missed(n: DVec4) -> bool {
 }
 
 /// The largest footprint and colour variance of a set of frames, which set the scales the
-/// guides are stored at. Neighbouring frames' guides are compared, so every frame of an
+/// guides are stored at (powers of two, so that the filter's result does not depend on them
+/// unless `f32` would overflow or underflow). The variance is each pixel's own, before it is
+/// smoothed: smoothing averages, so its largest value bounds the smoothed ones, and the scales
+/// pass need not smooth. Neighbouring frames' guides are compared, so every frame of an
 /// animation is stored at the same scales: a streaming filter learns them in a pass over the
 /// frames before filtering.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -120,7 +124,7 @@ impl Scales {
     /// The scales of one frame (zero for a film whose buffers disagree with its size).
     pub fn of(film: &Film, opts: &AtrousOptions) -> Scales {
         if consistent(film) {
-            Scales::of_prepared(&prepare(film, opts))
+            Scales::of_prepared(&unsmoothed(film, opts))
         } else {
             Scales::default()
         }
@@ -221,6 +225,13 @@ fn pack(film: &Film, p: Prepared, scale_x: f64, scale_c: f64) -> Guides {
 }
 
 pub(super) fn prepare(film: &Film, opts: &AtrousOptions) -> Prepared {
+    let p = unsmoothed(film, opts);
+    let var = smooth_variance(&p.surface(film, opts), &p.var);
+    Prepared { var, ..p }
+}
+
+/// The guides with each pixel's own variance, not yet smoothed (see `smooth_variance`).
+fn unsmoothed(film: &Film, opts: &AtrousOptions) -> Prepared {
     let (w, h) = (film.width, film.height);
     let albedo: Vec<DVec3> = film
         .albedo
@@ -268,20 +279,17 @@ pub(super) fn prepare(film: &Film, opts: &AtrousOptions) -> Prepared {
         .std_error
         .iter()
         .all(|s| sanitize(s.x) + sanitize(s.y) + sanitize(s.z) == 0.0);
-    let surface = Surface {
-        film,
-        missed: &missed,
-        fx: &fx,
-        fy: &fy,
-        sn2: opts.sigma_normal * opts.sigma_normal,
-        sx2: opts.sigma_position * opts.sigma_position,
+    let mut p = Prepared {
+        albedo,
+        missed,
+        fx,
+        fy,
+        var: Vec::new(),
     };
-    let var: Vec<f64> = if no_noise_info {
-        spatial_variance(&surface, &albedo)
+    p.var = if no_noise_info {
+        spatial_variance(&p.surface(film, opts), &p.albedo)
     } else {
-        film.std_error
-            .iter()
-            .zip(&albedo)
+        (film.std_error.iter().zip(&p.albedo))
             .map(|(s, a)| {
                 let s = DVec3::new(sanitize(s.x), sanitize(s.y), sanitize(s.z)) / *a;
                 let v = s.length_squared();
@@ -289,13 +297,20 @@ pub(super) fn prepare(film: &Film, opts: &AtrousOptions) -> Prepared {
             })
             .collect()
     };
-    let var = smooth_variance(&surface, &var);
-    Prepared {
-        albedo,
-        missed,
-        fx,
-        fy,
-        var,
+    p
+}
+
+impl Prepared {
+    /// What the variance estimates weigh neighbours by.
+    fn surface<'a>(&'a self, film: &'a Film, opts: &AtrousOptions) -> Surface<'a> {
+        Surface {
+            film,
+            missed: &self.missed,
+            fx: &self.fx,
+            fy: &self.fy,
+            sn2: opts.sigma_normal * opts.sigma_normal,
+            sx2: opts.sigma_position * opts.sigma_position,
+        }
     }
 }
 
@@ -359,7 +374,15 @@ fn smooth_variance(surface: &Surface, var: &[f64]) -> Vec<f64> {
                     let Some(t) = surface.exponent(p, q, (dx as f64, dy as f64)) else {
                         continue;
                     };
-                    let wq = kx * ky * (-t).exp();
+                    // Without the C library's `exp` where it is known: most taps are on the same
+                    // surface as the pixel or both missed (0), or across an edge (dropped, as
+                    // the filter's taps are).
+                    let e = match t {
+                        0.0 => 1.0,
+                        t if t > CUTOFF as f64 => continue,
+                        t => (-t).exp(),
+                    };
+                    let wq = kx * ky * e;
                     if wq > 0.0 {
                         sum += wq * var[q];
                         wsum += wq;

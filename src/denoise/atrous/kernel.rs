@@ -12,8 +12,8 @@ pub(super) const CUTOFF: f32 = 40.0;
 /// Pixels of a row filtered together: their guides and sums stay in the L1 cache while the
 /// taps stream past.
 const BLOCK: usize = 64;
-/// The taps of a pixel: 5 x 5 in each of 3 frames.
-pub(super) const TAPS: usize = 75;
+/// The taps of a pixel in one frame: 5 x 5.
+const FRAME_TAPS: usize = 25;
 /// The lanes of the widest vectors the tap loops are compiled for (`f32` in AVX2).
 const LANES: usize = 8;
 
@@ -109,6 +109,9 @@ pub(super) struct Pass<'a> {
     pub(super) cur32: &'a [Vec<f32>],
     /// For every frame, the frames its taps read (itself included), with their frame weights.
     pub(super) sources: Vec<Vec<(usize, f64)>>,
+    /// Whether the taps reach into the previous and the next frame (then `sources` may hold
+    /// them, and a pixel has three frames' taps to store).
+    pub(super) temporal: bool,
     pub(super) step: usize,
     pub(super) sc2: f32,
     pub(super) sx2: f32,
@@ -292,6 +295,11 @@ fn exponents(out: &mut [f32], p: &Run, q: &Run, tap: &Tap) {
 }
 
 impl Pass<'_> {
+    /// The weights a pixel stores (see `block_taps`): a frame's taps, or three frames'.
+    pub(super) fn taps(&self) -> usize {
+        (if self.temporal { 3 } else { 1 }) * FRAME_TAPS
+    }
+
     /// Call `sink.tap(run, weights)` for every tap of the pixels `x0..x0 + len` (at most
     /// `BLOCK`) of row `y` of frame `k`, in the order previous / same / next frame, then rows,
     /// then columns: `weights[i]` is the weight of pixel `x0 + run.lo + i`'s tap (zero where it
@@ -299,8 +307,8 @@ impl Pass<'_> {
     /// Weights are symmetric: the tap `q` of `p` has `p` as a tap with the same weight. A centre
     /// whose own colour is not valid gets weights without the colour term.
     ///
-    /// With `Weights::Store`, the weights are also stored in the row's `TAPS` rows of weights
-    /// (tap `slot(..)` at `[slot * w..(slot + 1) * w]`); with `Weights::Load` they are taken from
+    /// With `Weights::Store`, the weights are also stored in the row's `taps()` rows of weights
+    /// (tap `slot` at `[slot * w..(slot + 1) * w]`); with `Weights::Load` they are taken from
     /// there instead of computed.
     #[inline(always)]
     fn block_taps(
@@ -338,7 +346,7 @@ impl Pass<'_> {
         let step = self.step as isize;
         for &(kq, frame_weight) in &self.sources[k] {
             let other = kq != k;
-            let frame_slot = (kq + 1 - k) * B3.len() * B3.len();
+            let frame_slot = (if self.temporal { kq + 1 - k } else { 0 }) * FRAME_TAPS;
             let Some(src) = &self.guides[kq] else {
                 continue;
             };
@@ -552,26 +560,20 @@ impl Sink for Update<'_> {
                 &mut d2[lo..lo + n],
             );
             let [cp0, cp1, cp2] = self.cp.map(|c| &c[lo..lo + n]);
+            // A tap not kept (weight zero) may have a colour that is not finite: its term is
+            // zeroed by taking `p`'s own colour for `q`'s, not by keeping `delta` as it was,
+            // which compiles to masked stores (microcoded and slow on some CPUs). `m > 0` for
+            // every pixel with a valid colour (its centre weighs); `delta` is not read for the
+            // others.
             for i in 0..n {
                 let wt = wts[i] as f64;
                 let m = if wp[i] > wq[i] { wp[i] } else { wq[i] };
                 let f = wt / m;
-                let ok = (wt > 0.0) & (m > 0.0);
-                d0[i] = if ok {
-                    d0[i] + f * (cq0[i] - cp0[i])
-                } else {
-                    d0[i]
-                };
-                d1[i] = if ok {
-                    d1[i] + f * (cq1[i] - cp1[i])
-                } else {
-                    d1[i]
-                };
-                d2[i] = if ok {
-                    d2[i] + f * (cq2[i] - cp2[i])
-                } else {
-                    d2[i]
-                };
+                let take = wt > 0.0;
+                let q = |cq: &[f64], cp: &[f64]| if take { cq[i] } else { cp[i] };
+                d0[i] += f * (q(cq0, cp0) - cp0[i]);
+                d1[i] += f * (q(cq1, cp1) - cp1[i]);
+                d2[i] += f * (q(cq2, cp2) - cp2[i]);
             }
         }
         if self.average {
@@ -582,12 +584,14 @@ impl Sink for Update<'_> {
                 &mut s2[lo..lo + n],
             );
             let ws = &mut self.wsum[lo..lo + n];
+            // Zero for a tap not kept, whose colour may not be finite (see above).
             for i in 0..n {
                 let wt = wts[i] as f64;
-                let ok = wt > 0.0;
-                s0[i] = if ok { s0[i] + wt * cq0[i] } else { s0[i] };
-                s1[i] = if ok { s1[i] + wt * cq1[i] } else { s1[i] };
-                s2[i] = if ok { s2[i] + wt * cq2[i] } else { s2[i] };
+                let take = wt > 0.0;
+                let q = |cq: &[f64]| if take { cq[i] } else { 0.0 };
+                s0[i] += wt * q(cq0);
+                s1[i] += wt * q(cq1);
+                s2[i] += wt * q(cq2);
                 ws[i] += wt;
             }
         }

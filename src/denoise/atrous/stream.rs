@@ -11,7 +11,7 @@
 //! is held, so the result is the same bit for bit.
 
 use super::guides::{self, CHANNELS, COLOR_PLANES, Guides, Scales, split, to_planes};
-use super::kernel::{Pass, TAPS, Term};
+use super::kernel::{Pass, Term};
 use super::{AtrousOptions, FRAME_WEIGHTS, remodulated};
 use crate::film::Film;
 use glam::DVec3;
@@ -195,6 +195,7 @@ impl Stream {
             cur: &colours.cur,
             cur32: &colours.cur32,
             sources,
+            temporal,
             step: 1 << p,
             sc2: (sc * sc) as f32,
             sx2: (opts.sigma_position * opts.sigma_position) as f32,
@@ -217,9 +218,9 @@ impl Stream {
                         && g.w > 0
                     {
                         let mut sums = vec![0.0; g.s * g.h];
-                        let mut stored = vec![0.0; g.h * TAPS * g.w];
+                        let mut stored = vec![0.0; g.h * step.taps() * g.w];
                         sums.par_chunks_mut(g.s)
-                            .zip(stored.par_chunks_mut(TAPS * g.w))
+                            .zip(stored.par_chunks_mut(step.taps() * g.w))
                             .enumerate()
                             .for_each(|(y, (row, st))| step.sums_row((j, y), row, st));
                         state.sums[j] = sums;
@@ -229,7 +230,7 @@ impl Stream {
                 }
                 let (sums, stored) = (&state.sums[..], &state.stored[k]);
                 out.par_chunks_mut(CHANNELS * g.s)
-                    .zip(stored.par_chunks(TAPS * g.w))
+                    .zip(stored.par_chunks(step.taps() * g.w))
                     .enumerate()
                     .for_each(|(y, (row, st))| step.update_row((k, y), Some((sums, st)), row));
             } else {
