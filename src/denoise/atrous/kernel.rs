@@ -584,11 +584,12 @@ impl Sink for Update<'_> {
                 &mut s2[lo..lo + n],
             );
             let ws = &mut self.wsum[lo..lo + n];
-            // Zero for a tap not kept, whose colour may not be finite (see above).
+            // A tap not kept weighs zero and its colour may not be finite: clamped to the
+            // finite numbers (NaN to the largest), its term is zero without a select, which
+            // would compile to masked stores (see above).
             for i in 0..n {
                 let wt = wts[i] as f64;
-                let take = wt > 0.0;
-                let q = |cq: &[f64]| if take { cq[i] } else { 0.0 };
+                let q = |cq: &[f64]| cq[i].min(f64::MAX).max(f64::MIN);
                 s0[i] += wt * q(cq0);
                 s1[i] += wt * q(cq1);
                 s2[i] += wt * q(cq2);
