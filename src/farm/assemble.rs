@@ -239,15 +239,28 @@ pub fn assemble(films: &Films, finish: &Finish, out: &Path, monitor: Monitor) ->
     let numbers: Vec<u32> = films.frames.keys().copied().collect();
     let mut next = 0;
     let stopped = || monitor.cancel.is_some_and(|c| c.load(Ordering::Relaxed));
-    for paths in films.frames.values() {
+    // The next film is read while the one before is filtered and encoded: reading is serial
+    // work the filter's threads would otherwise wait for.
+    let mut paths = films.frames.values();
+    let mut ahead = paths.next().map(|p| film(p));
+    while let Some(read) = ahead {
         if stopped() {
             return Err(Error::Cancelled);
         }
-        for done in denoiser.push(film(paths)?) {
-            sink.push(numbers[next] as usize, &done.image())?;
-            next += 1;
-            (monitor.progress)(1);
-        }
+        let current = read?;
+        let (pushed, read) = rayon::join(
+            || -> Result<()> {
+                for done in denoiser.push(current) {
+                    sink.push(numbers[next] as usize, &done.image())?;
+                    next += 1;
+                    (monitor.progress)(1);
+                }
+                Ok(())
+            },
+            || paths.next().map(|p| film(p)),
+        );
+        pushed?;
+        ahead = read;
     }
     Ok(sink.finish()?)
 }
