@@ -589,6 +589,8 @@ impl Sink for Update<'_> {
             // would compile to masked stores (see above).
             for i in 0..n {
                 let wt = wts[i] as f64;
+                // Not `clamp`, which keeps a NaN.
+                #[allow(clippy::manual_clamp)]
                 let q = |cq: &[f64]| cq[i].min(f64::MAX).max(f64::MIN);
                 s0[i] += wt * q(cq0);
                 s1[i] += wt * q(cq1);
