@@ -215,11 +215,12 @@ impl Probe {
 
     /// The probe's second stage, where the first could not decide (its march of the whole tape
     /// cost `first` as far as it went): through the cells of `cells` (a frame's field with
-    /// cells), then on the whole tape as far as that can win. After each chunk of rays from
+    /// cells), then on the whole tape as far as that can win. After each quarter of rays from
     /// the second on, cells whose building alone would cost the render more than `WORSE`
     /// times the whole tape's march (at the first stage's cost per ray) are given up, and so
     /// are cells whose building in the probe has cost more than `BUDGET` of the frame's
-    /// camera rays on the whole tape; the whole tape is then marched alone. Not where the
+    /// camera rays on the whole tape, checked after every `CHUNK` rays; the whole tape is
+    /// then marched alone. Not where the
     /// first stage's rays crawled: the cells may be what keeps those rays within the step
     /// limit (`Choice::CellsForSteps`), whatever they cost.
     pub fn through(cells: Field, sight: Sight, first: Work) -> Probe {
@@ -247,27 +248,29 @@ impl Probe {
         };
         let per_ray = first.cost(&WHOLE) / first.rays.max(1) as f64;
         let crawled = first.crawls();
-        let give_up = |work: &Work| {
-            after.borrow_mut().push(work.built);
+        let give_up = |work: &Work, part_done: bool| {
+            if part_done {
+                after.borrow_mut().push(work.built);
+            }
             if crawled {
                 return false;
             }
-            let spent = work.built * CELLS.built;
+            // Checked on every piece: a ray of a far scene may build thousands of nodes.
+            if work.built * CELLS.built > BUDGET * per_ray * samples {
+                return true;
+            }
             // The share `s` is known once the second quarter is marched.
-            let worse = after.borrow().len() >= 2 && {
+            part_done && after.borrow().len() >= 2 && {
                 let marched = work.rays.min(camera.len() as u64);
                 let built = building(marched).per_probe(work.built) * CELLS.built;
                 built > WORSE * per_ray * work.rays as f64
-            };
-            spent > BUDGET * per_ray * samples || worse
+            }
         };
-        let marched = generations(
-            &mut marcher,
-            cells,
-            camera.clone(),
-            sight,
-            (camera.len().div_ceil(4), give_up),
-        );
+        let pace = Pace {
+            part: camera.len().div_ceil(4),
+            piece: CHUNK,
+        };
+        let marched = generations(&mut marcher, cells, camera.clone(), sight, (pace, give_up));
         let Ok((mut cells, all)) = marched else {
             let (work, all) = generations(&mut marcher, whole, camera, sight, NEVER)
                 .expect("a march that never gives up");
@@ -427,8 +430,12 @@ fn whole_alone(
     whole: Field,
     sight: Sight,
 ) -> Result<(Work, Vec<Ray>), Work> {
-    let give_up = |work: &Work| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
-    let (work, all) = generations(marcher, whole, sight.rays(), sight, (CHUNK, give_up))?;
+    let give_up = |work: &Work, _| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
+    let pace = Pace {
+        part: CHUNK,
+        piece: CHUNK,
+    };
+    let (work, all) = generations(marcher, whole, sight.rays(), sight, (pace, give_up))?;
     match work.crawls() {
         false => Ok((work, all)),
         true => Err(work),
@@ -447,29 +454,47 @@ const WORSE: f64 = 2.0;
 /// longer than the render takes.
 const BUDGET: f64 = 1.0;
 
+/// How a march of the probe takes a generation's rays: in parts of `part` rays, each marched
+/// `piece` rays at a time, its cost checked after each piece.
+#[derive(Clone, Copy)]
+struct Pace {
+    part: usize,
+    piece: usize,
+}
+
 /// A march of the probe that takes its rays all at once and never gives up.
-const NEVER: (usize, fn(&Work) -> bool) = (usize::MAX, |_| false);
+const NEVER: (Pace, fn(&Work, bool) -> bool) = (
+    Pace {
+        part: usize::MAX,
+        piece: usize::MAX,
+    },
+    |_, _| false,
+);
 
 /// The probe's rays on `field`: the camera rays `rays`, then `BOUNCES` generations of mirror
-/// bounces from their hits, `chunk` rays per march; what that cost and every ray marched, or
-/// what it cost so far as soon as `give_up` says so of it.
+/// bounces from their hits, marched at `pace`; what that cost and every ray marched, or what
+/// it cost so far as soon as `give_up` says so of it (told after each piece whether it ended
+/// a part).
 fn generations(
     marcher: &mut Marcher,
     field: Field,
     mut rays: Vec<Ray>,
     sight: Sight,
-    (chunk, give_up): (usize, impl Fn(&Work) -> bool),
+    (pace, give_up): (Pace, impl Fn(&Work, bool) -> bool),
 ) -> Result<(Work, Vec<Ray>), Work> {
     let (mut work, mut hits, mut found, mut all) = (Work::default(), vec![], vec![], vec![]);
     let (limits, mut grad) = (sight.limits(), Regs { r: vec![] });
     for generation in 0..=BOUNCES {
         found.clear();
-        for part in rays.chunks(chunk) {
-            march(marcher, field, part, limits, &mut hits, &mut work);
-            if give_up(&work) {
-                return Err(work);
+        for part in rays.chunks(pace.part) {
+            let pieces = part.len().div_ceil(pace.piece);
+            for (k, piece) in part.chunks(pace.piece).enumerate() {
+                march(marcher, field, piece, limits, &mut hits, &mut work);
+                if give_up(&work, k + 1 == pieces) {
+                    return Err(work);
+                }
+                found.extend_from_slice(&hits);
             }
-            found.extend_from_slice(&hits);
         }
         all.extend_from_slice(&rays);
         if generation < BOUNCES {
@@ -479,7 +504,7 @@ fn generations(
     Ok((work, all))
 }
 
-/// Rays the whole tape's march of the probe takes at a time before it checks its cost.
+/// Rays a march of the probe takes at a time before it checks its cost.
 const CHUNK: usize = 16;
 
 /// March `rays` through `field`, adding what it cost to `work`.
