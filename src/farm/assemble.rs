@@ -216,8 +216,9 @@ impl Finish {
 
 /// Denoise and encode the frames of `films` to `out`; numbered files carry the frames' own
 /// numbers when the animation has more than one frame. Frames stream through: each film is
-/// read when the denoiser wants it and written once it is final, so memory holds the
-/// denoiser's window, not the animation. `monitor` is told of each frame written; stopped,
+/// read just before the denoiser wants it (while the one before is filtered) and written
+/// once it is final, so memory holds the denoiser's window and one film more, not the
+/// animation. `monitor` is told of each frame written; stopped,
 /// this returns [`Error::Cancelled`] and leaves no partial GIF (frames already written as
 /// files stay, and the films are untouched).
 pub fn assemble(films: &Films, finish: &Finish, out: &Path, monitor: Monitor) -> Result<Written> {

@@ -13,15 +13,17 @@ use crate::scene::Denoise;
 pub const RENDER_BYTES_PER_PIXEL: u64 = 512;
 
 /// Bytes a pixel while the films of `frames` frames are denoised and encoded: the denoiser
-/// holds a window of neighbouring frames' films and guides. Measured with `atrous`: 0.54 KB
-/// for one frame, 1.44 KB for two, 1.82 KB for three, 2.16 KB for four and 2.34 KB for eight;
-/// `median` over eight: 1.0 KB; `none`: 0.51 KB.
+/// holds a window of neighbouring frames' films and guides, and the next film is read while
+/// one is filtered. Measured with `atrous` (2026-12-05, the render's peak, 512 x 512,
+/// `d4_packing` at 1 sample and 1 bounce): 0.65 KB for one frame, 1.25 KB for two, 1.60 KB
+/// for three, 2.16 KB for four and 2.53 KB for eight; `median` over eight: 1.37 KB; `none`:
+/// 1.28 KB (two frames in flight while rendering).
 pub fn finishing_bytes_per_pixel(denoise: Denoise, frames: usize) -> u64 {
     match (denoise, frames) {
         (Denoise::None, _) | (_, 0 | 1) => 512,
         (Denoise::Median, _) => 1000,
-        (Denoise::Atrous, 2) => 1400,
-        (Denoise::Atrous, 3) => 1800,
+        (Denoise::Atrous, 2) => 1200,
+        (Denoise::Atrous, 3) => 1500,
         (Denoise::Atrous, _) => 2100,
     }
 }

@@ -220,9 +220,8 @@ impl Probe {
     /// times the whole tape's march (at the first stage's cost per ray) are given up, and so
     /// are cells whose building in the probe has cost more than `BUDGET` of the frame's
     /// camera rays on the whole tape, checked after every `CHUNK` rays; the whole tape is
-    /// then marched alone. Not where the
-    /// first stage's rays crawled: the cells may be what keeps those rays within the step
-    /// limit (`Choice::CellsForSteps`), whatever they cost.
+    /// then marched alone. Not where the first stage's rays crawled: the cells may be what
+    /// keeps those rays within the step limit (`Choice::CellsForSteps`), whatever they cost.
     pub fn through(cells: Field, sight: Sight, first: Work) -> Probe {
         let whole = Field {
             cells: None,

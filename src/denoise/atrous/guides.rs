@@ -374,9 +374,9 @@ fn smooth_variance(surface: &Surface, var: &[f64]) -> Vec<f64> {
                     let Some(t) = surface.exponent(p, q, (dx as f64, dy as f64)) else {
                         continue;
                     };
-                    // Without the C library's `exp` where it is known: most taps are on the same
-                    // surface as the pixel or both missed (0), or across an edge (dropped, as
-                    // the filter's taps are).
+                    // Without the C library's `exp` where it is known: the centre and taps
+                    // where both rays missed (0), and taps across an edge (dropped, as the
+                    // filter's are: weights below 4e-18 of the centre's).
                     let e = match t {
                         0.0 => 1.0,
                         t if t > CUTOFF as f64 => continue,

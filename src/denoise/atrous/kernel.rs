@@ -308,7 +308,7 @@ impl Pass<'_> {
     /// whose own colour is not valid gets weights without the colour term.
     ///
     /// With `Weights::Store`, the weights are also stored in the row's `taps()` rows of weights
-    /// (tap `slot` at `[slot * w..(slot + 1) * w]`); with `Weights::Load` they are taken from
+    /// (the tap numbered `i` at `[i * w..(i + 1) * w]`); with `Weights::Load` they are taken from
     /// there instead of computed.
     #[inline(always)]
     fn block_taps(
