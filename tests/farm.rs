@@ -138,6 +138,8 @@ fn frame_shards_merge_into_the_same_bytes() {
         &["merge", "s0", "s1", "s2", "-o", "merged.gif"],
     ));
     assert!(err.contains("3 shards"), "{err}");
+    // `merge` reports the GIF's quantisation as `render` does.
+    assert!(err.contains("GIF quantisation: PSNR"), "{err}");
     assert!(same(d, "merged.gif", "one.gif"));
     // No image is written by a shard, and the shards' films stay.
     assert!(!d.join("scene.gif").exists());

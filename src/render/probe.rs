@@ -127,6 +127,8 @@ pub struct Probe {
     pub whole: Work,
     /// What marching the whole tape with plain steps cost, where the whole tape won.
     pub plain: Option<Work>,
+    /// What marching through the cells had cost when they were given up (`Probe::through`).
+    pub abandoned: Option<Work>,
 }
 
 /// Where the probe looks: the frame's camera and objects, the image's size and samples per
@@ -208,6 +210,7 @@ impl Probe {
             cells: None,
             whole: work,
             plain: None,
+            abandoned: None,
         };
         probe.plain_steps(marcher, whole, all, limits);
         probe
@@ -270,16 +273,24 @@ impl Probe {
             piece: CHUNK,
         };
         let marched = generations(&mut marcher, cells, camera.clone(), sight, (pace, give_up));
-        let Ok((mut cells, all)) = marched else {
-            let (work, all) = generations(&mut marcher, whole, camera, sight, NEVER)
-                .expect("a march that never gives up");
-            return Probe::on_whole(&mut marcher, whole, (work, &all), limits);
+        let (mut cells, all) = match marched {
+            Ok(marched) => marched,
+            Err(abandoned) => {
+                let (work, all) = generations(&mut marcher, whole, camera, sight, NEVER)
+                    .expect("a march that never gives up");
+                let probe = Probe::on_whole(&mut marcher, whole, (work, &all), limits);
+                return Probe {
+                    abandoned: Some(abandoned),
+                    ..probe
+                };
+            }
         };
         cells.built = building(camera.len() as u64).per_probe(cells.built);
         let mut probe = Probe {
             cells: Some(cells),
             whole: Work::default(),
             plain: None,
+            abandoned: None,
         };
         probe.whole_after_cells(&mut marcher, whole, &all, limits);
         probe.plain_steps(&mut marcher, whole, &all, limits);
