@@ -493,9 +493,11 @@ fn peak_kb(dir: &Path, args: &[&str]) -> i64 {
     usage.ru_maxrss
 }
 
-/// Frames stream through the renderer, the denoiser and the encoder: four times the frames
+/// Frames stream through the renderer, the denoiser and the encoder: three times the frames
 /// take about the same memory (each frame here is 300 KB of radiance sums and 2 MB of
-/// denoiser state).
+/// denoiser state). Both renders have more frames than the denoiser's window and the film
+/// read ahead of it, which hold the same memory however many frames follow; against 4
+/// frames, which fill neither, 16 took up to 1.5 times the memory on a loaded machine.
 #[cfg(target_os = "linux")]
 #[test]
 fn peak_memory_does_not_grow_with_the_frames() {
@@ -516,13 +518,13 @@ fn peak_memory_does_not_grow_with_the_frames() {
         ];
         peak_kb(d, &args)
     };
-    let four = run("4", "four.gif");
-    let sixteen = run("16", "sixteen.gif");
-    let ratio = sixteen as f64 / four as f64;
-    eprintln!("peak memory: 4 frames {four} KB, 16 frames {sixteen} KB, ratio {ratio:.2}");
+    let eight = run("8", "eight.gif");
+    let many = run("24", "many.gif");
+    let ratio = many as f64 / eight as f64;
+    eprintln!("peak memory: 8 frames {eight} KB, 24 frames {many} KB, ratio {ratio:.2}");
     assert!(
         ratio < 1.5,
-        "16 frames take {ratio:.2} times the memory of 4"
+        "24 frames take {ratio:.2} times the memory of 8"
     );
 }
 
