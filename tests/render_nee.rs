@@ -502,3 +502,42 @@ fn light_sampling_is_bit_identical_whatever_the_thread_count() {
     assert_eq!(one.frames, two.frames);
     assert_eq!(one.stats, two.stats);
 }
+
+#[test]
+fn shadow_rays_marching_without_their_light_still_meet_what_is_in_the_way() {
+    // Where a frame marches its whole tape, a shadow ray marches the scene without its light
+    // (`FrameScene::unlit`) up to the light's ball, and sees the light if it gets there. A
+    // shelf under the lamp (which is above the field of view) shades the floor under it,
+    // and must stay in the way: without it the floor there would get 0.8 * 10 * (0.5 / 2)^3,
+    // which is more than the rest of the picture's light.
+    let src = "render { size = 4 x 3  spp = 10000  bounces = 3  seed = 1 }
+               camera { from = [0, -0.5, -3, 0] look = rotate(yz, 8deg) fov = 50deg }
+               object floor { shape = halfspace(offset: -1) material = diffuse(albedo: rgb(0.8)) }
+               object shelf { shape = hyperbox([0.6, 0.05, 0.6, 0.6]) |> translate([0, 0, 0.5, 0]) material = diffuse(albedo: rgb(0.5)) }
+               object lamp { shape = hypersphere(0.5) |> translate([0, 1, 0.5, 0]) material = light(intensity: 10) }";
+    let frames = Frames::new(&scene_of(src));
+    for (marcher, tapes) in [
+        (MarcherKind::Whole, 1),
+        (MarcherKind::Cells, 0),
+        (MarcherKind::Plain, 0),
+    ] {
+        let fs = frames.at(0.0, Build::marcher(marcher));
+        assert_eq!(fs.unlit.len(), tapes, "{marcher:?}");
+    }
+    let on = render_with(
+        src,
+        Options {
+            marcher: MarcherKind::Whole,
+            ..with_nee(true)
+        },
+    );
+    let off = render_with(
+        &src.replace("seed = 1", "seed = 2"),
+        Options {
+            marcher: MarcherKind::Plain,
+            ..with_nee(false)
+        },
+    );
+    assert!(on.stats.shadow_rays > 0);
+    assert_means_agree("unlit shadow rays, light sampling on / off", &on, &off);
+}

@@ -4,8 +4,9 @@
 //! tapes, cells, camera, material layouts, lights and media: the renderer reads nothing else.
 
 use super::{Compiled, LightPlacement, frame_time};
+use crate::ir::Id;
 use crate::ir::SceneIr;
-use crate::ir::lower::Leaf;
+use crate::ir::lower::{Leaf, nearest};
 use crate::material::{Material, Slot};
 use crate::render::camera::FrameCamera;
 use crate::render::frame::{Build, Features, FrameObject, FrameScene, FrameSource, Shot};
@@ -13,6 +14,7 @@ use crate::render::lights::{Lights, SphereLight};
 use crate::render::march::{Limits, MarcherKind};
 use crate::render::material::{Layout, Medium, Surface};
 use crate::scene::{Param, Scene};
+use crate::vm::Tape;
 use crate::vm::cells::{Cells, Placed, Roots};
 use crate::vm::escape::{Escape, proven_box};
 use glam::{DVec3, DVec4};
@@ -102,6 +104,7 @@ impl Frames {
             scene: program.scene,
             interior: program.interior,
             lights: Lights::new(lights, objects.len()),
+            unlit: vec![],
             objects,
             medium: self.medium,
             sky: self.sky,
@@ -111,6 +114,9 @@ impl Frames {
         };
         if build.marcher == MarcherKind::Auto {
             fs.choose_marcher(&self.shot, || plan.build(&program.ir));
+        }
+        if fs.cells.is_none() && build.marcher != MarcherKind::Plain {
+            fs.unlit = unlit(&program.ir, fs.lights.lights());
         }
         fs
     }
@@ -124,6 +130,21 @@ impl FrameSource for Frames {
     fn frame(&self, frame: u32, build: Build) -> FrameScene {
         self.at(frame_time(frame, self.shot.frames), build)
     }
+}
+
+/// For each light, the scene's distance and nearest object without it (`FrameScene::unlit`).
+fn unlit(ir: &SceneIr, lights: &[SphereLight]) -> Vec<Tape> {
+    (lights.iter())
+        .map(|l| {
+            let mut g = ir.graph.clone();
+            let ds: Vec<(usize, Id)> = (ir.objects.iter().enumerate())
+                .filter(|&(i, o)| i != l.object as usize && !o.material.is_air())
+                .map(|(i, o)| (i, o.distance))
+                .collect();
+            let (d, n) = nearest(&mut g, &ds);
+            Tape::compile("unlit", &g, &[d, n])
+        })
+        .collect()
 }
 
 /// The layout of a material tape whose outputs are the selector, then `leaves`' parameters in

@@ -6,10 +6,11 @@
 //! With `Settings::light_sampling` on, every non-delta scattering vertex (diffuse, rough shiny,
 //! a scattering event in a medium) also samples a direction towards one spherical light
 //! (`lights.rs`) and sends a shadow ray; the shadow rays of a whole wavefront march together
-//! after shading. A shadow ray sees the light when the first surface it meets is that light;
-//! it is attenuated by `exp(-sigma_t t)` in the path's current (homogeneous) medium. Any other
-//! first surface, a glass or fog boundary included, occludes it: light through those is left to
-//! BSDF sampling, which reaches it with weight 1 (see below).
+//! after shading. A shadow ray sees the light when the first surface it meets is that light
+//! (on a whole-tape frame: when it gets to the light's ball on the scene without the light,
+//! `march_shadows`); it is attenuated by `exp(-sigma_t t)` in the path's current (homogeneous)
+//! medium. Any other first surface, a glass or fog boundary included, occludes it: light
+//! through those is left to BSDF sampling, which reaches it with weight 1 (see below).
 //!
 //! The two strategies are combined by multiple importance sampling with the **power heuristic**
 //! (exponent 2) on solid-angle pdfs: the light sample is weighted by
@@ -26,7 +27,7 @@
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
 use super::frame::{FrameObject, FrameScene, Shot};
 use super::lights::Lights;
-use super::march::{Hit, Marcher, Ray};
+use super::march::{Field, Hit, Marcher, Ray};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
@@ -204,10 +205,13 @@ struct Pending<'c> {
 }
 
 /// A light sample waiting for its shadow ray: what it adds to path `path` if the ray's first
-/// hit is object `object`, before attenuation by `exp(-sigma_t t)`.
+/// hit is object `object` (light `light` of the frame's `Lights`, whose ball the ray enters
+/// `enter` along it), before attenuation by `exp(-sigma_t t)`.
 struct Shadow {
     path: u32,
     object: u32,
+    light: u32,
+    enter: f64,
     sigma_t: f64,
     contribution: DVec3,
 }
@@ -217,6 +221,11 @@ struct Shadow {
 struct Shadows {
     pending: Vec<Shadow>,
     rays: Vec<Ray>,
+    /// The rays of one tape (`march_shadows`): which field they march (0: the frame's, `k +
+    /// 1`: light `k`'s unlit tape), and their index in `pending`; then the batch of them and
+    /// their hits.
+    queue: Vec<(u32, u32)>,
+    batch: Vec<Ray>,
     hits: Vec<Hit>,
 }
 
@@ -440,22 +449,7 @@ fn trace(
 
         // Shadow rays of the light samples taken above, all at once.
         if !shadows.pending.is_empty() {
-            let before = (marcher.evaluations, marcher.instructions);
-            marcher.march(fs.field(), &shadows.rays, s.shot.limits, &mut shadows.hits);
-            stats.count_work(marcher, before);
-            stats.shadow_rays += shadows.rays.len() as u64;
-            for (sh, hit) in shadows.pending.iter().zip(&shadows.hits) {
-                if let Hit::Surface { t, object } = *hit
-                    && object == sh.object as usize
-                {
-                    let transmittance = if sh.sigma_t > 0.0 {
-                        (-sh.sigma_t * t).exp()
-                    } else {
-                        1.0
-                    };
-                    paths[sh.path as usize].radiance += sh.contribution * transmittance;
-                }
-            }
+            march_shadows(fs, s, marcher, shadows, paths, stats);
         }
 
         // Retire finished paths into their pixels.
@@ -588,9 +582,15 @@ impl Nee<'_> {
         if !contribution.is_finite() || contribution.max_element() <= 0.0 {
             return true;
         }
+        // The ray from `origin`, a little off `x`, may just miss the ball: it sees nothing.
+        let Some(enter) = enter_ball(origin, ls.wo, light.center, light.radius) else {
+            return true;
+        };
         shadows.pending.push(Shadow {
             path: index,
             object: light.object,
+            light: ls.light as u32,
+            enter,
             sigma_t: medium.sigma_t.max(0.0),
             contribution,
         });
@@ -614,6 +614,95 @@ impl Nee<'_> {
         let light = lights.of_object(object)?;
         let ratio = lights.pdf(light, path.mis_from) / path.mis_pdf;
         Some(1.0 / (1.0 + ratio * ratio))
+    }
+}
+
+/// Where the ray from `o` along the unit direction `d` enters the ball (`center`, `radius`):
+/// 0 from inside it, `None` if it misses.
+fn enter_ball(o: DVec4, d: DVec4, center: DVec4, radius: f64) -> Option<f64> {
+    let to = center - o;
+    let (b, c) = (to.dot(d), to.length_squared() - radius * radius);
+    if c <= 0.0 {
+        return Some(0.0);
+    }
+    let disc = b * b - c;
+    (b > 0.0 && disc >= 0.0).then(|| c / (b + disc.sqrt()))
+}
+
+/// March the wavefront's shadow rays and add what their lights give the paths. Where the
+/// frame marches its whole tape, a ray from outside objects marches its light's unlit tape
+/// (`FrameScene::unlit`) only as far as the light's ball, and sees the light if nothing is
+/// in the way: the steps that close in on the light's own surface, shorter and shorter where
+/// the ray meets it at a slant, were half of a lit room's steps. Elsewhere it marches the
+/// frame's field as far as past the light, and sees it if the light is the first surface
+/// it meets.
+fn march_shadows(
+    fs: &FrameScene,
+    s: &Settings,
+    marcher: &mut Marcher,
+    shadows: &mut Shadows,
+    paths: &mut [Path],
+    stats: &mut Stats,
+) {
+    let Shadows {
+        pending,
+        rays,
+        queue,
+        batch,
+        hits,
+    } = shadows;
+    queue.clear();
+    queue.extend(
+        pending
+            .iter()
+            .zip(rays.iter())
+            .enumerate()
+            .map(|(i, (sh, r))| {
+                let unlit = !r.interior && (sh.light as usize) < fs.unlit.len();
+                (if unlit { sh.light + 1 } else { 0 }, i as u32)
+            }),
+    );
+    queue.sort_unstable();
+    stats.shadow_rays += rays.len() as u64;
+    for group in queue.chunk_by(|a, b| a.0 == b.0) {
+        let unlit = group[0].0.checked_sub(1).map(|k| &fs.unlit[k as usize]);
+        batch.clear();
+        batch.extend(group.iter().map(|&(_, i)| {
+            let (sh, r) = (&pending[i as usize], rays[i as usize]);
+            match unlit {
+                Some(_) => Ray {
+                    tmax: sh.enter,
+                    ..r
+                },
+                None => r,
+            }
+        }));
+        let field = match unlit {
+            Some(tape) => Field {
+                scene: tape,
+                ..fs.field()
+            },
+            None => fs.field(),
+        };
+        let before = (marcher.evaluations, marcher.instructions);
+        marcher.march(field, batch, s.shot.limits, hits);
+        stats.count_work(marcher, before);
+        for (&(_, i), hit) in group.iter().zip(hits.iter()) {
+            let sh = &pending[i as usize];
+            // On the unlit tape the ray sees the light where it gets to the ball (an `f64`
+            // settling near it may still name the light).
+            let t = match (*hit, unlit) {
+                (Hit::Surface { t, object }, _) if object == sh.object as usize => t,
+                (Hit::Beyond, Some(_)) => sh.enter,
+                _ => continue,
+            };
+            let transmittance = if sh.sigma_t > 0.0 {
+                (-sh.sigma_t * t).exp()
+            } else {
+                1.0
+            };
+            paths[sh.path as usize].radiance += sh.contribution * transmittance;
+        }
     }
 }
 
