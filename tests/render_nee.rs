@@ -509,20 +509,38 @@ fn shadow_rays_marching_without_their_light_still_meet_what_is_in_the_way() {
     // (`FrameScene::unlit`) up to the light's ball, and sees the light if it gets there. A
     // shelf under the lamp (which is above the field of view) shades the floor under it,
     // and must stay in the way: without it the floor there would get 0.8 * 10 * (0.5 / 2)^3,
-    // which is more than the rest of the picture's light.
+    // which is more than the rest of the picture's light. A second lamp above the first is
+    // partly hidden by it (the first must stay in the second's unlit tape), and thin fog
+    // attenuates every shadow ray up to where it enters a ball.
     let src = "render { size = 4 x 3  spp = 10000  bounces = 3  seed = 1 }
                camera { from = [0, -0.5, -3, 0] look = rotate(yz, 8deg) fov = 50deg }
+               medium = fog(extinction: 0.2, albedo: rgb(0.5))
                object floor { shape = halfspace(offset: -1) material = diffuse(albedo: rgb(0.8)) }
                object shelf { shape = hyperbox([0.6, 0.05, 0.6, 0.6]) |> translate([0, 0, 0.5, 0]) material = diffuse(albedo: rgb(0.5)) }
-               object lamp { shape = hypersphere(0.5) |> translate([0, 1, 0.5, 0]) material = light(intensity: 10) }";
+               object lamp { shape = hypersphere(0.5) |> translate([0, 1, 0.5, 0]) material = light(intensity: 10) }
+               object high { shape = hypersphere(0.3) |> translate([0, 2.2, 0.5, 0]) material = light(intensity: 60) }";
     let frames = Frames::new(&scene_of(src));
     for (marcher, tapes) in [
-        (MarcherKind::Whole, 1),
+        (MarcherKind::Whole, 2),
         (MarcherKind::Cells, 0),
         (MarcherKind::Plain, 0),
     ] {
         let fs = frames.at(0.0, Build::marcher(marcher));
         assert_eq!(fs.unlit.len(), tapes, "{marcher:?}");
+    }
+    // Each light's unlit tape leaves that light out and keeps the other.
+    let fs = frames.at(0.0, Build::marcher(MarcherKind::Whole));
+    let lights = fs.lights.lights();
+    for (k, tape) in fs.unlit.iter().enumerate() {
+        for (j, l) in lights.iter().enumerate() {
+            let mut regs = hyperslice::vm::Regs::<f32, 1>::new(tape);
+            let at = l.center.as_vec4().to_array();
+            let d = hyperslice::vm::eval_point(tape, &mut regs, at, [0.0; 4], 0.0)[0] as f64;
+            match j == k {
+                true => assert!(d > l.radius, "light {k}'s own centre on its tape: {d}"),
+                false => assert!((d + l.radius).abs() < 1e-5, "light {j} on light {k}'s: {d}"),
+            }
+        }
     }
     let on = render_with(
         src,
@@ -540,4 +558,30 @@ fn shadow_rays_marching_without_their_light_still_meet_what_is_in_the_way() {
     );
     assert!(on.stats.shadow_rays > 0);
     assert_means_agree("unlit shadow rays, light sampling on / off", &on, &off);
+}
+
+#[test]
+fn lights_are_apart_only_from_objects_they_lie_wholly_outside() {
+    // Light sampling marches no shadow ray from inside an object whose surface the light lies
+    // wholly outside (`Lights::apart`): the ray would meet that surface first. A lamp inside
+    // the haze, one across its surface and one outside it; an air pocket, which stops no
+    // shadow ray, is apart from none; no light is apart from itself.
+    let src = "render { size = 4 x 3  spp = 1 }
+               object haze { shape = hypersphere(1.5) |> translate([0.3, 1.8, 0.5, 0]) material = fog(extinction: 0.8, albedo: rgb(0.9)) }
+               object inner { shape = hypersphere(0.2) |> translate([0.3, 2.6, 0.5, 0]) material = light(intensity: 40) }
+               object edge { shape = hypersphere(0.2) |> translate([0.3, 3.25, 0.5, 0]) material = light(intensity: 40) }
+               object free { shape = hypersphere(0.2) |> translate([-1.5, 2.9, 0, 0]) material = light(intensity: 40) }
+               object pocket { shape = hypersphere(0.5) |> translate([-1.5, 2.9, 0, 0]) material = air }";
+    let fs = Frames::new(&scene_of(src)).at(0.0, Build::marcher(MarcherKind::Auto));
+    let (haze, pocket) = (0, 4);
+    let apart = |light: usize| [0, 1, 2, 3, 4].map(|o| fs.lights.apart(light, o));
+    assert_eq!(fs.lights.lights().len(), 3);
+    // Objects: haze, inner, edge, free, pocket.
+    assert_eq!(apart(0), [false, false, true, true, false], "inner");
+    assert_eq!(apart(1), [false, true, false, true, false], "edge");
+    assert_eq!(apart(2), [true, true, true, false, false], "free");
+    assert!(!fs.lights.apart(2, pocket) && fs.lights.apart(2, haze));
+    // That the shadow rays it skips would have been occluded is what
+    // `light_inside_a_fog_object_agrees_with_bsdf_sampling` checks: with every light apart
+    // from every other object, it fails.
 }

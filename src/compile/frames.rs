@@ -6,7 +6,7 @@
 use super::{Compiled, LightPlacement, frame_time};
 use crate::ir::Id;
 use crate::ir::SceneIr;
-use crate::ir::lower::{Leaf, nearest};
+use crate::ir::lower::{Leaf, nearest, visible};
 use crate::material::{Material, Slot};
 use crate::render::camera::FrameCamera;
 use crate::render::frame::{Build, Features, FrameObject, FrameScene, FrameSource, Shot};
@@ -15,7 +15,7 @@ use crate::render::march::{Limits, MarcherKind};
 use crate::render::material::{Layout, Medium, Surface};
 use crate::scene::{Param, Scene};
 use crate::vm::Tape;
-use crate::vm::cells::{Cells, Placed, Roots};
+use crate::vm::cells::{Cells, Placed, Roots, epsilon_at};
 use crate::vm::escape::{Escape, proven_box};
 use glam::{DVec3, DVec4};
 
@@ -103,7 +103,12 @@ impl Frames {
             escape,
             scene: program.scene,
             interior: program.interior,
-            lights: Lights::new(lights, objects.len()),
+            lights: apart(
+                Lights::new(lights, objects.len()),
+                (&objects, &program.ir),
+                t,
+                self.shot.limits.epsilon,
+            ),
             unlit: vec![],
             objects,
             medium: self.medium,
@@ -132,14 +137,35 @@ impl FrameSource for Frames {
     }
 }
 
+/// `lights` with each light marked apart from the objects whose surface it lies wholly
+/// outside (`Lights::mark_apart`): its distance from the object exceeds its radius by more
+/// than the `f32` rounding there. Air stops no shadow ray; it is never apart.
+fn apart(
+    mut lights: Lights,
+    (objects, ir): (&[FrameObject], &SceneIr),
+    t: f64,
+    eps: f64,
+) -> Lights {
+    lights.mark_apart(|l, o| {
+        if o == l.object as usize || ir.objects[o].material.is_air() {
+            return false;
+        }
+        let tape = &objects[o].distance;
+        let mut regs = crate::vm::Regs::<f32, 1>::new(tape);
+        let at = l.center.as_vec4().to_array();
+        let d = crate::vm::eval_point(tape, &mut regs, at, [0.0; 4], t as f32)[0] as f64;
+        d > l.radius + 4.0 * epsilon_at(l.center, eps)
+    });
+    lights
+}
+
 /// For each light, the scene's distance and nearest object without it (`FrameScene::unlit`).
 fn unlit(ir: &SceneIr, lights: &[SphereLight]) -> Vec<Tape> {
     (lights.iter())
         .map(|l| {
             let mut g = ir.graph.clone();
-            let ds: Vec<(usize, Id)> = (ir.objects.iter().enumerate())
-                .filter(|&(i, o)| i != l.object as usize && !o.material.is_air())
-                .map(|(i, o)| (i, o.distance))
+            let ds: Vec<(usize, Id)> = (visible(&ir.objects))
+                .filter(|&(i, _)| i != l.object as usize)
                 .collect();
             let (d, n) = nearest(&mut g, &ds);
             Tape::compile("unlit", &g, &[d, n])

@@ -271,6 +271,13 @@ pub fn lower(scene: &Scene) -> SceneIr {
     }
 }
 
+/// The objects rays can meet (not air), as (object index, distance).
+pub fn visible(objects: &[ObjectIr]) -> impl Iterator<Item = (usize, Id)> + '_ {
+    (objects.iter().enumerate())
+        .filter(|(_, o)| !o.material.is_air())
+        .map(|(i, o)| (i, o.distance))
+}
+
 /// The smallest of the distances `ds` (object index, distance) and its object's index (-1
 /// for none), as a running min-with-id.
 pub fn nearest(g: &mut Graph, ds: &[(usize, Id)]) -> (Id, Id) {
@@ -306,9 +313,8 @@ impl Lower<'_> {
         objects: &[ObjectIr],
         mut distance: impl FnMut(&mut Self, Id) -> Id,
     ) -> (Id, Id) {
-        let ds: Vec<(usize, Id)> = (objects.iter().enumerate())
-            .filter(|(_, o)| !o.material.is_air())
-            .map(|(i, o)| (i, distance(self, o.distance)))
+        let ds: Vec<(usize, Id)> = (visible(objects))
+            .map(|(i, d)| (i, distance(self, d)))
             .collect();
         nearest(&mut self.g, &ds)
     }

@@ -59,7 +59,7 @@ pub struct FrameScene {
     pub lights: Lights,
     /// For each of `lights`, the scene tape without that light, which shadow rays towards
     /// it march up to its ball; empty where the frame marches through cells (whose tapes
-    /// meet spheres exactly) or with the plain marcher (the baseline takes no shortcut).
+    /// meet spheres exactly) or under `--marcher plain` (the baseline takes no shortcut).
     #[doc(hidden)]
     pub unlit: Vec<Tape>,
     /// The scene and interior tapes pruned to regions of space: what rays march through

@@ -205,11 +205,10 @@ struct Pending<'c> {
 }
 
 /// A light sample waiting for its shadow ray: what it adds to path `path` if the ray's first
-/// hit is object `object` (light `light` of the frame's `Lights`, whose ball the ray enters
-/// `enter` along it), before attenuation by `exp(-sigma_t t)`.
+/// hit is light `light` of the frame's `Lights` (whose ball the ray enters `enter` along it),
+/// before attenuation by `exp(-sigma_t t)`.
 struct Shadow {
     path: u32,
-    object: u32,
     light: u32,
     enter: f64,
     sigma_t: f64,
@@ -569,6 +568,12 @@ impl Nee<'_> {
         let Some(ls) = lights.sample(x, select, u) else {
             return true;
         };
+        // From inside an object that the light lies wholly outside, the shadow ray meets the
+        // object's surface first: it is occluded, without marching it.
+        let stack = &path.stack.entries[..path.stack.len];
+        if stack.iter().any(|e| lights.apart(ls.light, e.0)) {
+            return true;
+        }
         let (f, pdf_bsdf) = lobe(ls.wo);
         // Nothing towards the light (below the surface, or a NaN from a degenerate lobe).
         if f.max_element().is_nan() || f.max_element() <= 0.0 {
@@ -588,7 +593,6 @@ impl Nee<'_> {
         };
         shadows.pending.push(Shadow {
             path: index,
-            object: light.object,
             light: ls.light as u32,
             enter,
             sigma_t: medium.sigma_t.max(0.0),
@@ -653,48 +657,33 @@ fn march_shadows(
     } = shadows;
     queue.clear();
     queue.extend(
-        pending
-            .iter()
-            .zip(rays.iter())
-            .enumerate()
-            .map(|(i, (sh, r))| {
-                let unlit = !r.interior && (sh.light as usize) < fs.unlit.len();
-                (if unlit { sh.light + 1 } else { 0 }, i as u32)
-            }),
+        (pending.iter().zip(rays.iter()).enumerate()).map(|(i, (sh, r))| {
+            let unlit = !r.interior && (sh.light as usize) < fs.unlit.len();
+            (if unlit { sh.light + 1 } else { 0 }, i as u32)
+        }),
     );
     queue.sort_unstable();
     stats.shadow_rays += rays.len() as u64;
     for group in queue.chunk_by(|a, b| a.0 == b.0) {
         let unlit = group[0].0.checked_sub(1).map(|k| &fs.unlit[k as usize]);
+        let field = unlit.map_or(fs.field(), |tape| Field {
+            scene: tape,
+            ..fs.field()
+        });
         batch.clear();
         batch.extend(group.iter().map(|&(_, i)| {
             let (sh, r) = (&pending[i as usize], rays[i as usize]);
-            match unlit {
-                Some(_) => Ray {
-                    tmax: sh.enter,
-                    ..r
-                },
-                None => r,
-            }
+            let tmax = if unlit.is_some() { sh.enter } else { r.tmax };
+            Ray { tmax, ..r }
         }));
-        let field = match unlit {
-            Some(tape) => Field {
-                scene: tape,
-                ..fs.field()
-            },
-            None => fs.field(),
-        };
         let before = (marcher.evaluations, marcher.instructions);
         marcher.march(field, batch, s.shot.limits, hits);
         stats.count_work(marcher, before);
-        for (&(_, i), hit) in group.iter().zip(hits.iter()) {
+        for (&(_, i), &hit) in group.iter().zip(hits.iter()) {
             let sh = &pending[i as usize];
-            // On the unlit tape the ray sees the light where it gets to the ball (an `f64`
-            // settling near it may still name the light).
-            let t = match (*hit, unlit) {
-                (Hit::Surface { t, object }, _) if object == sh.object as usize => t,
-                (Hit::Beyond, Some(_)) => sh.enter,
-                _ => continue,
+            let light = fs.lights.lights()[sh.light as usize].object as usize;
+            let Some(t) = sees(hit, light, unlit.map(|_| sh.enter)) else {
+                continue;
             };
             let transmittance = if sh.sigma_t > 0.0 {
                 (-sh.sigma_t * t).exp()
@@ -703,6 +692,17 @@ fn march_shadows(
             };
             paths[sh.path as usize].radiance += sh.contribution * transmittance;
         }
+    }
+}
+
+/// Where a shadow ray that ended in `hit` sees the light, object `light`: where it meets it
+/// first, or, marched on the light's unlit tape up to where it enters its ball (`enter`),
+/// there if nothing was in the way (an `f64` settling near the ball may still name the light).
+fn sees(hit: Hit, light: usize, enter: Option<f64>) -> Option<f64> {
+    match (hit, enter) {
+        (Hit::Surface { t, object }, _) if object == light => Some(t),
+        (Hit::Beyond, Some(enter)) => Some(enter),
+        _ => None,
     }
 }
 

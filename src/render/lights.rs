@@ -154,6 +154,9 @@ pub struct Lights {
     cumulative: Vec<f64>,
     /// For every object index, its light, if it is one.
     by_object: Vec<Option<u32>>,
+    /// For every light and object (light-major), whether the light's ball lies wholly
+    /// outside the object's surface (`mark_apart`); empty until marked.
+    apart: Vec<bool>,
 }
 
 impl Lights {
@@ -192,7 +195,24 @@ impl Lights {
             probability,
             cumulative,
             by_object,
+            apart: vec![],
         }
+    }
+
+    /// Mark, for every light and object, whether `outside(light, object)`: the light's ball
+    /// lies wholly outside a surface of the object that stops shadow rays, so that one
+    /// leaving from inside the object meets that surface before the light.
+    pub fn mark_apart(&mut self, outside: impl Fn(&SphereLight, usize) -> bool) {
+        let objects = self.by_object.len();
+        self.apart = (self.lights.iter())
+            .flat_map(|l| (0..objects).map(|o| outside(l, o)).collect::<Vec<_>>())
+            .collect();
+    }
+
+    /// Whether light `i` lies wholly outside object `object` (`mark_apart`; false unmarked).
+    pub fn apart(&self, i: usize, object: u32) -> bool {
+        let at = i * self.by_object.len() + object as usize;
+        self.apart.get(at).copied().unwrap_or(false)
     }
 
     /// Whether the frame has no spherical light (next-event estimation is then skipped).
