@@ -22,7 +22,7 @@ use hyperslice::compile::Frames;
 use hyperslice::render::driver::Options;
 use hyperslice::render::frame::Build;
 use hyperslice::render::lights::{
-    ball_pdf, cap_area, cap_integral, cone_half_angle, sample_ball, sample_cone_theta,
+    Side, ball_pdf, cap_area, cap_integral, cone_half_angle, sample_ball, sample_cone_theta,
 };
 use hyperslice::render::march::MarcherKind;
 use hyperslice::render::sampling::uniform_s3;
@@ -561,11 +561,12 @@ fn shadow_rays_marching_without_their_light_still_meet_what_is_in_the_way() {
 }
 
 #[test]
-fn lights_are_apart_only_from_objects_they_lie_wholly_outside() {
+fn lights_lie_outside_or_inside_only_objects_they_clear() {
     // Light sampling marches no shadow ray from inside an object whose surface the light lies
-    // wholly outside (`Lights::apart`): the ray would meet that surface first. A lamp inside
-    // the haze, one across its surface and one outside it; an air pocket, which stops no
-    // shadow ray, is apart from none; no light is apart from itself.
+    // wholly outside, nor from outside one it lies wholly inside (`Lights::side`): the ray
+    // would meet that surface first. A lamp inside the haze, one across its surface and one
+    // outside it; an air pocket, which stops no shadow ray, and each light's own object are
+    // neither.
     let src = "render { size = 4 x 3  spp = 1 }
                object haze { shape = hypersphere(1.5) |> translate([0.3, 1.8, 0.5, 0]) material = fog(extinction: 0.8, albedo: rgb(0.9)) }
                object inner { shape = hypersphere(0.2) |> translate([0.3, 2.6, 0.5, 0]) material = light(intensity: 40) }
@@ -573,15 +574,18 @@ fn lights_are_apart_only_from_objects_they_lie_wholly_outside() {
                object free { shape = hypersphere(0.2) |> translate([-1.5, 2.9, 0, 0]) material = light(intensity: 40) }
                object pocket { shape = hypersphere(0.5) |> translate([-1.5, 2.9, 0, 0]) material = air }";
     let fs = Frames::new(&scene_of(src)).at(0.0, Build::marcher(MarcherKind::Auto));
-    let (haze, pocket) = (0, 4);
-    let apart = |light: usize| [0, 1, 2, 3, 4].map(|o| fs.lights.apart(light, o));
+    let sides = |light: usize| [0, 1, 2, 3, 4].map(|o| fs.lights.side(light, o));
     assert_eq!(fs.lights.lights().len(), 3);
     // Objects: haze, inner, edge, free, pocket.
-    assert_eq!(apart(0), [false, false, true, true, false], "inner");
-    assert_eq!(apart(1), [false, true, false, true, false], "edge");
-    assert_eq!(apart(2), [true, true, true, false, false], "free");
-    assert!(!fs.lights.apart(2, pocket) && fs.lights.apart(2, haze));
-    // That the shadow rays it skips would have been occluded is what
-    // `light_inside_a_fog_object_agrees_with_bsdf_sampling` checks: with every light apart
-    // from every other object, it fails.
+    let (o, i, a) = (Side::Outside, Side::Inside, Side::Across);
+    assert_eq!(sides(0), [i, a, o, o, a], "inner");
+    assert_eq!(sides(1), [a, o, a, o, a], "edge");
+    assert_eq!(sides(2), [o, o, o, a, a], "free");
+    assert_eq!(fs.lights.enclosing(0), [0]);
+    assert!(fs.lights.enclosing(1).is_empty() && fs.lights.enclosing(2).is_empty());
+    // That the shadow rays skipped would have been occluded is what
+    // `light_inside_a_fog_object_agrees_with_bsdf_sampling` (from inside an object the light
+    // is outside of) and `light_behind_glass_agrees_with_bsdf_sampling` (from outside an
+    // object the light is inside) check: with every light outside, or inside, every other
+    // object, they fail.
 }

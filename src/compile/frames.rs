@@ -10,7 +10,7 @@ use crate::ir::lower::{Leaf, nearest, visible};
 use crate::material::{Material, Slot};
 use crate::render::camera::FrameCamera;
 use crate::render::frame::{Build, Features, FrameObject, FrameScene, FrameSource, Shot};
-use crate::render::lights::{Lights, SphereLight};
+use crate::render::lights::{Lights, Side, SphereLight};
 use crate::render::march::{Limits, MarcherKind};
 use crate::render::material::{Layout, Medium, Surface};
 use crate::scene::{Param, Scene};
@@ -103,7 +103,7 @@ impl Frames {
             escape,
             scene: program.scene,
             interior: program.interior,
-            lights: apart(
+            lights: sides(
                 Lights::new(lights, objects.len()),
                 (&objects, &program.ir),
                 t,
@@ -137,24 +137,31 @@ impl FrameSource for Frames {
     }
 }
 
-/// `lights` with each light marked apart from the objects whose surface it lies wholly
-/// outside (`Lights::mark_apart`): its distance from the object exceeds its radius by more
-/// than the `f32` rounding there. Air stops no shadow ray; it is never apart.
-fn apart(
+/// `lights` with each light's side of each object's surface marked (`Lights::mark_sides`):
+/// outside or inside where the object's distance at the light's centre is beyond its radius
+/// by more than the `f32` rounding there. Air stops no shadow ray: it is never marked.
+fn sides(
     mut lights: Lights,
     (objects, ir): (&[FrameObject], &SceneIr),
     t: f64,
     eps: f64,
 ) -> Lights {
-    lights.mark_apart(|l, o| {
+    lights.mark_sides(|l, o| {
         if o == l.object as usize || ir.objects[o].material.is_air() {
-            return false;
+            return Side::Across;
         }
         let tape = &objects[o].distance;
         let mut regs = crate::vm::Regs::<f32, 1>::new(tape);
         let at = l.center.as_vec4().to_array();
         let d = crate::vm::eval_point(tape, &mut regs, at, [0.0; 4], t as f32)[0] as f64;
-        d > l.radius + 4.0 * epsilon_at(l.center, eps)
+        let beyond = l.radius + 4.0 * epsilon_at(l.center, eps);
+        if d > beyond {
+            Side::Outside
+        } else if d < -beyond {
+            Side::Inside
+        } else {
+            Side::Across
+        }
     });
     lights
 }

@@ -26,7 +26,7 @@
 
 use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
 use super::frame::{FrameObject, FrameScene, Shot};
-use super::lights::Lights;
+use super::lights::{Lights, Side};
 use super::march::{Field, Hit, Marcher, Ray};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
@@ -568,10 +568,15 @@ impl Nee<'_> {
         let Some(ls) = lights.sample(x, select, u) else {
             return true;
         };
-        // From inside an object that the light lies wholly outside, the shadow ray meets the
-        // object's surface first: it is occluded, without marching it.
-        let stack = &path.stack.entries[..path.stack.len];
-        if stack.iter().any(|e| lights.apart(ls.light, e.0)) {
+        // The shadow ray meets a surface first where it must leave an object the light lies
+        // wholly outside, or enter one it lies wholly inside: it is occluded, unmarched.
+        let stack = &path.stack;
+        let inside = &stack.entries[..stack.len];
+        if inside
+            .iter()
+            .any(|e| lights.side(ls.light, e.0) == Side::Outside)
+            || (lights.enclosing(ls.light).iter()).any(|&o| stack.contains(o) == Some(false))
+        {
             return true;
         }
         let (f, pdf_bsdf) = lobe(ls.wo);

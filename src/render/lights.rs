@@ -154,9 +154,22 @@ pub struct Lights {
     cumulative: Vec<f64>,
     /// For every object index, its light, if it is one.
     by_object: Vec<Option<u32>>,
-    /// For every light and object (light-major), whether the light's ball lies wholly
-    /// outside the object's surface (`mark_apart`); empty until marked.
-    apart: Vec<bool>,
+    /// For every light and object (light-major), where the light's ball lies against the
+    /// object's surface (`mark_sides`); empty until marked.
+    sides: Vec<Side>,
+    /// For every light, the objects it lies wholly inside.
+    enclosing: Vec<Vec<u32>>,
+}
+
+/// Where a light's ball lies against a surface of an object that stops shadow rays.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Side {
+    /// Wholly outside it: a shadow ray from inside the object meets its surface first.
+    Outside,
+    /// Wholly inside it: a shadow ray from outside the object meets its surface first.
+    Inside,
+    /// Across it, or not known (the light's own object, air, which stops no ray).
+    Across,
 }
 
 impl Lights {
@@ -195,24 +208,33 @@ impl Lights {
             probability,
             cumulative,
             by_object,
-            apart: vec![],
+            sides: vec![],
+            enclosing: vec![],
         }
     }
 
-    /// Mark, for every light and object, whether `outside(light, object)`: the light's ball
-    /// lies wholly outside a surface of the object that stops shadow rays, so that one
-    /// leaving from inside the object meets that surface before the light.
-    pub fn mark_apart(&mut self, outside: impl Fn(&SphereLight, usize) -> bool) {
+    /// Mark, for every light and object, `side(light, object)`: where the light's ball lies
+    /// against the object's surface.
+    pub fn mark_sides(&mut self, side: impl Fn(&SphereLight, usize) -> Side) {
         let objects = self.by_object.len();
-        self.apart = (self.lights.iter())
-            .flat_map(|l| (0..objects).map(|o| outside(l, o)).collect::<Vec<_>>())
+        self.sides = (self.lights.iter())
+            .flat_map(|l| (0..objects).map(|o| side(l, o)).collect::<Vec<_>>())
+            .collect();
+        self.enclosing = (self.sides.chunks(objects.max(1)))
+            .map(|row| (0..row.len() as u32).filter(|&o| row[o as usize] == Side::Inside))
+            .map(|inside| inside.collect())
             .collect();
     }
 
-    /// Whether light `i` lies wholly outside object `object` (`mark_apart`; false unmarked).
-    pub fn apart(&self, i: usize, object: u32) -> bool {
+    /// Where light `i` lies against object `object`'s surface (`Across` unmarked).
+    pub fn side(&self, i: usize, object: u32) -> Side {
         let at = i * self.by_object.len() + object as usize;
-        self.apart.get(at).copied().unwrap_or(false)
+        self.sides.get(at).copied().unwrap_or(Side::Across)
+    }
+
+    /// The objects light `i` lies wholly inside (none unmarked).
+    pub fn enclosing(&self, i: usize) -> &[u32] {
+        self.enclosing.get(i).map_or(&[], |v| v.as_slice())
     }
 
     /// Whether the frame has no spherical light (next-event estimation is then skipped).
