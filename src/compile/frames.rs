@@ -150,10 +150,7 @@ fn sides(
         if o == l.object as usize || ir.objects[o].material.is_air() {
             return Side::Across;
         }
-        let tape = &objects[o].distance;
-        let mut regs = crate::vm::Regs::<f32, 1>::new(tape);
-        let at = l.center.as_vec4().to_array();
-        let d = crate::vm::eval_point(tape, &mut regs, at, [0.0; 4], t as f32)[0] as f64;
+        let d = objects[o].distance_at(l.center, t);
         let beyond = l.radius + 4.0 * epsilon_at(l.center, eps);
         if d > beyond {
             Side::Outside
@@ -167,10 +164,12 @@ fn sides(
 }
 
 /// For each light, the scene's distance and nearest object without it (`FrameScene::unlit`).
+/// Each light's running min goes into one copy of the frame's graph; a tape compiles only
+/// the nodes its roots reach.
 fn unlit(ir: &SceneIr, lights: &[SphereLight]) -> Vec<Tape> {
+    let mut g = ir.graph.clone();
     (lights.iter())
         .map(|l| {
-            let mut g = ir.graph.clone();
             let ds: Vec<(usize, Id)> = (visible(&ir.objects))
                 .filter(|&(i, _)| i != l.object as usize)
                 .collect();

@@ -25,6 +25,15 @@ pub struct FrameObject {
     pub layout: Layout,
 }
 
+impl FrameObject {
+    /// The object's signed distance at `p`, at animation time `t` (one point on its tape).
+    pub fn distance_at(&self, p: DVec4, t: f64) -> f64 {
+        let mut regs = crate::vm::Regs::<f32, 1>::new(&self.distance);
+        let at = p.as_vec4().to_array();
+        crate::vm::eval_point(&self.distance, &mut regs, at, [0.0; 4], t as f32)[0] as f64
+    }
+}
+
 /// What a scene uses, so the renderer pays only for those features.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Features {
@@ -181,14 +190,6 @@ impl FrameScene {
 
     /// Whether `p` is strictly inside object `i` (by more than `eps`).
     pub fn contains(&self, i: usize, p: DVec4, eps: f64) -> bool {
-        let mut regs = crate::vm::Regs::<f32, 1>::new(&self.objects[i].distance);
-        let d = crate::vm::eval_point(
-            &self.objects[i].distance,
-            &mut regs,
-            p.as_vec4().to_array(),
-            [0.0; 4],
-            self.t as f32,
-        );
-        (d[0] as f64) < -eps
+        self.objects[i].distance_at(p, self.t) < -eps
     }
 }

@@ -157,7 +157,8 @@ pub struct Lights {
     /// For every light and object (light-major), where the light's ball lies against the
     /// object's surface (`mark_sides`); empty until marked.
     sides: Vec<Side>,
-    /// For every light, the objects it lies wholly inside.
+    /// For every light, the objects it lies wholly inside: `sides` gathered once for light
+    /// sampling, which asks for each sample.
     enclosing: Vec<Vec<u32>>,
 }
 
