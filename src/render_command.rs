@@ -262,7 +262,7 @@ enum MarcherArg {
     /// on the whole tape (as `whole`, or with plain steps where those cost less) where they do
     /// not (the default).
     Auto,
-    /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
+    /// Through the frame's pruned cells, with over-relaxed steps and exact planes, spheres and boxes,
     /// whether or not they pay.
     Cells,
     /// Over-relaxed sphere tracing on the whole scene tape: no cells, no exact shortcuts.

@@ -259,8 +259,9 @@ fn choose(iv: &Intervals, n: Node) -> Result<Id, Node> {
 }
 
 /// A hyperbox distance where the bounds decide which faces can be nearest and on which side
-/// of the centre the point is: inside the box, the largest of the candidate faces' affine
-/// distances; outside through one face, that face's. Otherwise the node as it is.
+/// of the centre the point is, and at most one face can have the point outside it: the
+/// largest of the candidate faces' affine distances (outside, that one face's). Otherwise the
+/// node as it is.
 fn box_faces(g: &mut Graph, iv: &Intervals, v: [Id; 4], r: [K; 9]) -> Id {
     let r = r.map(K::get);
     let u: [I; 4] = std::array::from_fn(|a| {
@@ -281,10 +282,9 @@ fn box_faces(g: &mut Graph, iv: &Intervals, v: [Id; 4], r: [K; 9]) -> Id {
     let whole = |g: &mut Graph| simplify(g, Node::BoxDist(v, r.map(K::new)), None);
     let hi = |a: usize| q[a].map_or(f64::INFINITY, |x| x.1.hi);
     let lo = |a: usize| q[a].map_or(f64::NEG_INFINITY, |x| x.1.lo);
-    let inside = (0..4).all(|a| hi(a) <= 0.0);
-    let outside_one = (0..4).filter(|&a| lo(a) >= 0.0).count() == 1
-        && (0..4).all(|a| lo(a) >= 0.0 || hi(a) <= 0.0);
-    if !inside && !outside_one {
+    // Where at most one axis can put the point outside, the distance is the largest of the
+    // faces' on both sides of the surface: outside, the one positive face's.
+    if (0..4).filter(|&a| hi(a) > 0.0).count() > 1 {
         return whole(g);
     }
     let top = (0..4).map(lo).fold(f64::NEG_INFINITY, f64::max);

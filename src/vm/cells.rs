@@ -2,7 +2,8 @@
 //! region rays visit, built lazily as rays reach its cells. Each cell carries the scene (and
 //! interior) tapes pruned to the cell (`ir::prune`), in coordinates local to the cell's
 //! centre, with interval lower bounds of their distances there and, where the distance is a
-//! few planes and spheres in the cell, its exact form (`ir::exact`). Inside a cell the pruned
+//! few planes, spheres and boxes in the cell, its exact form (`ir::exact`), for rays outside
+//! objects and for those inside. Inside a cell the pruned
 //! tapes compute what the whole scene tape does wherever the distance is below the cell's
 //! `reach` (a fraction of its edge) and a lower bound of at least `reach` elsewhere, so a ray
 //! step evaluates only the objects near where it is.
@@ -70,10 +71,13 @@ pub struct Cell {
     /// Lower bounds over the cell of the scene's distance and the interior's (minus infinity
     /// where unknown).
     pub lower: [f64; 2],
-    /// The scene distance as the smallest of a few planes and spheres in local coordinates,
+    /// The scene distance as the smallest of a few planes, spheres and boxes in local coordinates,
     /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a
     /// hypersphere alone): rays meet it exactly.
     pub exact: Option<Vec<Piece>>,
+    /// The interior's unsigned distance as such pieces, for rays inside objects (the faces
+    /// of a glass box and the floor under it, each of whose `|f|` is met on the ray's side).
+    pub inner: Option<Vec<Piece>>,
     /// Where the tapes' local coordinates are zero.
     pub origin: DVec4,
     /// Outputs: signed distance to the nearest visible object and its index (as `vm::Program`).
@@ -453,6 +457,9 @@ impl Cell {
         };
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
         let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
+        let inner = (needs.interior)
+            .then(|| pieces(&pr.graph, pr.roots[2], pr.roots[3]))
+            .flatten();
         let scene_rounding = if lower[0] > 0.0 || exact.is_some() {
             0.0
         } else {
@@ -469,11 +476,12 @@ impl Cell {
         let shorter = depth < MAX_DEPTH
             && len > SPLIT_LEN
             && (len < parent_len || depth < FREE_DEPTH || len > LONG_LEN);
-        // Exact cells need no splitting, but rays inside objects march their f32 interior
-        // tape even there.
+        // Exact cells need no splitting, unless rays inside objects march their f32 interior
+        // tape there.
         let finer = depth < PRECISE_DEPTH && size > PRECISE_EDGE * needs.epsilon.max(PRECISE_FLOOR);
         let split = !empty
-            && ((shorter && exact.is_none()) || (finer && (exact.is_none() || needs.interior)));
+            && ((shorter && exact.is_none())
+                || (finer && (exact.is_none() || needs.interior && inner.is_none())));
         Cell {
             lo,
             size,
@@ -486,6 +494,7 @@ impl Cell {
             scene_rounding,
             lower,
             exact,
+            inner,
             partial: OnceLock::new(),
             graph: pr,
             needs,
@@ -495,6 +504,12 @@ impl Cell {
                 .map(|_| OnceLock::new())
                 .collect(),
         }
+    }
+
+    /// The pieces that rays outside objects (`interior` false) or inside them meet exactly in
+    /// the cell, where its distance for them is one.
+    pub fn pieces(&self, interior: bool) -> Option<&[Piece]> {
+        if interior { &self.inner } else { &self.exact }.as_deref()
     }
 
     /// The cell's pieces and the tape of the rest, where it is partial (not exact).
@@ -539,7 +554,7 @@ impl Cell {
     /// radius) let rays through it. Rays outside objects see the crossing as a negative
     /// distance.
     pub fn epsilon(&self, p: DVec4, epsilon: f64, interior: bool) -> f64 {
-        if self.exact.is_some() && !interior {
+        if self.pieces(interior).is_some() {
             epsilon
         } else if interior && self.rounding.is_finite() {
             epsilon_at(p - self.origin, epsilon).max(self.rounding)

@@ -118,33 +118,52 @@ fn vec4(v: [f64; 4]) -> String {
 
 impl fmt::Display for Piece {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match &self.form {
-            Form::Plane { g, c } => write!(f, "plane {} . p + {c}", vec4(*g))?,
-            Form::Ball { rows, b, r, sign } => {
-                let rows: Vec<String> = rows.iter().map(|row| vec4(*row)).collect();
-                write!(
-                    f,
-                    "ball {sign} (|A p + {}| - {r}), A rows {}",
-                    vec4(*b),
-                    rows.join(" ")
-                )?
-            }
-            Form::Lattice(t) => {
-                let rows =
-                    |a: &[[f64; 4]; 4]| -> Vec<String> { a.iter().map(|r| vec4(*r)).collect() };
-                write!(
-                    f,
-                    "{:?}-tiled ball |M (q - c) + {}| - {}, c the lattice point of q = B p + {}, B rows {}, M rows {}",
-                    t.tiling,
-                    vec4(t.off),
-                    t.r,
-                    vec4(t.at),
-                    rows(&t.to).join(" "),
-                    rows(&t.m).join(" ")
-                )?
-            }
+        write!(f, "{}, object {}", form(&self.form), self.object)
+    }
+}
+
+/// One exact form, as `--emit bytecode --cell` prints it.
+fn form(form: &Form) -> String {
+    let rows = |a: &[[f64; 4]; 4]| -> String {
+        let rows: Vec<String> = a.iter().map(|r| vec4(*r)).collect();
+        rows.join(" ")
+    };
+    match form {
+        Form::Plane { g, c } => format!("plane {} . p + {c}", vec4(*g)),
+        Form::Ball {
+            rows: a,
+            b,
+            r,
+            sign,
+        } => {
+            format!(
+                "ball {sign} (|A p + {}| - {r}), A rows {}",
+                vec4(*b),
+                rows(a)
+            )
         }
-        write!(f, ", object {}", self.object)
+        Form::Box {
+            rows: a,
+            b,
+            half,
+            r,
+            sign,
+        } => format!(
+            "box {sign} (box(A p + {}, half {}) - {r}), A rows {}",
+            vec4(*b),
+            vec4(*half),
+            rows(a)
+        ),
+        Form::Abs { f, k } => format!("|{}| - {k}", self::form(f)),
+        Form::Lattice(t) => format!(
+            "{:?}-tiled ball |M (q - c) + {}| - {}, c the lattice point of q = B p + {}, B rows {}, M rows {}",
+            t.tiling,
+            vec4(t.off),
+            t.r,
+            vec4(t.at),
+            rows(&t.to),
+            rows(&t.m)
+        ),
     }
 }
 
@@ -197,6 +216,12 @@ impl fmt::Display for Cell {
                 writeln!(f, "  {p}")?;
             }
             rest = Some(&partial.rest);
+        }
+        if let Some(pieces) = &self.inner {
+            writeln!(f, "inside objects, exact: {}", count(pieces.len(), "piece"))?;
+            for p in pieces {
+                writeln!(f, "  {p}")?;
+            }
         }
         writeln!(f)?;
         if let Some(t) = rest {

@@ -1,13 +1,16 @@
 //! Distances that rays can meet exactly: where a cell's scene distance is the smallest of a
-//! few planes and spheres (halfspaces, the faces of a box seen from inside, a hypersphere
-//! alone, the cut bound of what is far), the marcher intersects each in `f64` instead of
-//! stepping towards it. A ray grazing a plane or a large sphere would otherwise take
-//! thousands of steps, each a little shorter than the gap it closes. A ball tiled over a
-//! lattice is met cell by cell (`lattice`).
+//! few planes, spheres and boxes (halfspaces, the faces of a box seen from inside, a
+//! hypersphere alone, a turned and rounded hyperbox, the cut bound of what is far) or shells
+//! of them (`|f| - k`: `onion`, and the unsigned distance that rays inside objects march
+//! on), the marcher intersects each in `f64` instead of stepping towards it. A ray grazing a
+//! plane or a large sphere would otherwise take thousands of steps, each a little shorter
+//! than the gap it closes. A rounded box is met by a march of its own along the ray
+//! (`boxes`), and a ball tiled over a lattice cell by cell (`lattice`).
 
+mod boxes;
 mod lattice;
 
-use super::{Bin, Graph, Id, Node, Un, Var};
+use super::{Bin, Graph, Id, K, Node, Un, Var};
 pub use lattice::{CELLS, Tiled, Tiling};
 
 /// One piece of a distance, on object `object`.
@@ -30,6 +33,19 @@ pub enum Form {
         r: f64,
         sign: f64,
     },
+    /// `sign (box(A p + b) - r)`, `box` the distance to the sharp hyperbox of half-extents
+    /// `half`: the box grown by `r` and rounded where `r > 0`, shrunk where it is negative,
+    /// its complement where `sign` is `-1` (rows as for `Ball`).
+    Box {
+        rows: [[f64; 4]; 4],
+        b: [f64; 4],
+        half: [f64; 4],
+        r: f64,
+        sign: f64,
+    },
+    /// `|f| - k`, `f` a plane, ball or box: a shell (`onion`), or seen from inside objects,
+    /// where distances are unsigned. A ray meets the form on its own side of `f`.
+    Abs { f: Box<Form>, k: f64 },
     /// A ball copied to every point of a lattice (`tile`): each point's copy in its cell.
     Lattice(Box<Tiled>),
 }
@@ -61,32 +77,98 @@ impl Form {
                 let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
                 sign * (dot(u, u).sqrt() - r)
             }
+            Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign,
+            } => sign * boxes::value(std::array::from_fn(|i| dot(rows[i], p) + b[i]), *half, *r),
+            Form::Abs { f, k } => f.value(p).abs() - k,
             Form::Lattice(t) => t.value(p),
+        }
+    }
+
+    /// Whether `meet` always finds the first point or says there is none: not for a rounded
+    /// box, whose march may stop short of a ray grazing it, nor a tiled ball's crossing.
+    fn closed(&self) -> bool {
+        match self {
+            Form::Box { r, .. } => *r <= 0.0,
+            Form::Abs { f, k } => match **f {
+                Form::Box { r, .. } => r + k.abs() <= 0.0,
+                _ => f.closed(),
+            },
+            Form::Lattice(_) => false,
+            Form::Plane { .. } | Form::Ball { .. } => true,
         }
     }
 
     /// What the ray from `p` along `d` meets: the first `t >= 0` at which it reaches the
     /// surface, coming from where the distance is positive, if it does before `clear`, how far
-    /// it is known to meet none: infinity for a plane or a ball, at least `limit` for a tiled
-    /// ball unless it gave up before, after crossing `cells` of its lattice's cells
-    /// (`Tiled::meet`).
+    /// it is known to meet none: infinity for a plane, a ball or a sharp box, as far as its
+    /// march got for a rounded box that a ray grazes, at least `limit` for a tiled ball unless
+    /// it gave up before, after crossing `cells` of its lattice's cells (`Tiled::meet`).
     pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> Meeting {
-        let t = match self {
+        match self {
+            Form::Abs { f, k } => f.meet_side(p, d, Some(*k)),
+            Form::Lattice(t) => t.meet(p, d, reach),
+            _ => self.meet_side(p, d, None),
+        }
+    }
+
+    /// `meet` for a plane, ball or box `f`, or with `shell` `Some(k)`, for `|f| - k`: on the
+    /// side of `f` the ray starts on, `f - k` or `-f - k`.
+    #[inline(always)]
+    fn meet_side(&self, p: [f64; 4], d: [f64; 4], shell: Option<f64>) -> Meeting {
+        // The sign to take `f` with where it is `v`, and what to take off it.
+        let side = |v: f64| match shell {
+            Some(k) => (if v >= 0.0 { 1.0 } else { -1.0 }, k),
+            None => (1.0, 0.0),
+        };
+        let (value, first, clear) = match self {
             Form::Plane { g, c } => {
-                let rate = dot(*g, d);
-                (rate < 0.0).then(|| ((dot(*g, p) + c) / -rate).max(0.0))
+                let (s, k) = side(dot(*g, p) + c);
+                let value = s * (dot(*g, p) + c) - k;
+                let rate = s * dot(*g, d);
+                let first = (rate < 0.0).then(|| (value / -rate).max(0.0));
+                (value, first, f64::INFINITY)
             }
-            Form::Ball { rows, b, r, .. } => {
+            Form::Ball { rows, b, r, sign } => {
                 let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
                 let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
-                ball_roots(u, w, *r).and_then(|(t0, t1)| [t0, t1].into_iter().find(|t| *t >= 0.0))
+                let n = dot(u, u).sqrt();
+                let (s, k) = side(sign * (n - r));
+                // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
+                let (sign, r) = (s * sign, r + s * sign * k);
+                let first = ball_roots(u, w, r)
+                    .and_then(|(t0, t1)| [t0, t1].into_iter().find(|t| *t >= 0.0));
+                (sign * (n - r), first, f64::INFINITY)
             }
-            Form::Lattice(t) => return t.meet(p, d, reach),
+            Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign,
+            } => {
+                let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
+                let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
+                let v = boxes::value(u, *half, *r);
+                let (s, k) = side(sign * v);
+                let sign = s * sign;
+                let value = sign * v - k;
+                match (value > 0.0).then(|| boxes::meet(u, w, (*half, r + sign * k), sign < 0.0)) {
+                    None => (value, Some(0.0), f64::INFINITY),
+                    Some(Ok(t)) => (value, t, f64::INFINITY),
+                    Some(Err(clear)) => (value, None, clear),
+                }
+            }
+            Form::Abs { .. } | Form::Lattice(_) => unreachable!("meet takes these"),
         };
         Meeting {
-            value: self.value(p),
-            first: t,
-            clear: f64::INFINITY,
+            value,
+            first,
+            clear,
             cells: 0,
         }
     }
@@ -101,6 +183,20 @@ impl Form {
                 r: r - sign * k,
                 sign,
             },
+            Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign,
+            } => Form::Box {
+                rows,
+                b,
+                half,
+                r: r - sign * k,
+                sign,
+            },
+            Form::Abs { f, k: j } => Form::Abs { f, k: j - k },
             Form::Lattice(t) => Form::Lattice(Box::new(t.grown(-k))),
         }
     }
@@ -119,7 +215,20 @@ impl Form {
                 r,
                 sign: -sign,
             },
-            Form::Lattice(_) => return None,
+            Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign,
+            } => Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign: -sign,
+            },
+            Form::Abs { .. } | Form::Lattice(_) => return None,
         })
     }
 }
@@ -160,11 +269,12 @@ pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
 pub type Members = Vec<(usize, Id)>;
 
 /// The scene's distance `dist` with nearest object `near`, where it is a running min over
-/// objects some of which are a few planes and spheres: their pieces, and the other objects
+/// objects some of which are a few planes, spheres and boxes: their pieces, and the other objects
 /// (object index, distance). None unless both kinds are there.
 pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
     // A partial cell's pieces are met once, to the cell's side, as a ray enters it; a tiled
-    // ball's crossing of its lattice may stop short of it, so tiled balls are the rest's.
+    // ball's crossing of its lattice, or a rounded box's march, may stop short of it, so they
+    // are the rest's.
     let (exact, rest) = split(g, dist, near, false)?;
     let surface = |p: &Piece| !matches!(p.form, Form::Plane { g, .. } if g == [0.0; 4]);
     (exact.iter().any(surface) && !rest.is_empty() && exact.len() <= MAX_PIECES)
@@ -172,11 +282,12 @@ pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)>
 }
 
 /// The running min over objects at `dist` (nearest object `near`) split into the pieces of
-/// the objects that are a few planes and spheres (and tiled balls, when `tiled`) and the
-/// other objects; None where `dist` is no such min.
-fn split(g: &Graph, dist: Id, near: Id, tiled: bool) -> Option<(Vec<Piece>, Members)> {
+/// the objects that are a few planes, spheres and boxes (and, when `open`, tiled balls and
+/// rounded boxes, whose meeting may stop short: `Form::closed`) and the other objects; None
+/// where `dist` is no such min.
+fn split(g: &Graph, dist: Id, near: Id, open: bool) -> Option<(Vec<Piece>, Members)> {
     let (mut exact, mut rest) = (vec![], vec![]);
-    split_at(g, (dist, near), tiled, &mut exact, &mut rest)?;
+    split_at(g, (dist, near), open, &mut exact, &mut rest)?;
     // The running min starts at +infinity, which is no surface.
     exact.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
     Some((exact, rest))
@@ -188,14 +299,14 @@ fn split(g: &Graph, dist: Id, near: Id, tiled: bool) -> Option<(Vec<Piece>, Memb
 fn split_at(
     g: &Graph,
     (dist, near): (Id, Id),
-    tiled: bool,
+    open: bool,
     exact: &mut Vec<Piece>,
     rest: &mut Members,
 ) -> Option<()> {
     let (member, object) = match (g.get(dist), g.get(near)) {
         (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => match g.get(t) {
             Node::MinId(best, best_id, d, id) => {
-                split_at(g, (best, best_id), tiled, exact, rest)?;
+                split_at(g, (best, best_id), open, exact, rest)?;
                 (d, id.get())
             }
             _ => return None,
@@ -203,9 +314,8 @@ fn split_at(
         _ => (dist, g.constant(near)?),
     };
     let mut forms = vec![];
-    let lattice = |forms: &[Form]| forms.iter().any(|f| matches!(f, Form::Lattice(_)));
     match min_of_forms(g, member, false, 0, &mut forms) {
-        Some(()) if tiled || !lattice(&forms) => {
+        Some(()) if open || forms.iter().all(Form::closed) => {
             exact.extend(forms.into_iter().map(|form| Piece { form, object }))
         }
         _ if object >= 0.0 => rest.push((object as usize, member)),
@@ -235,6 +345,23 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
             min_of_forms(g, b, neg, depth + 1, out)
         }
         Node::Un(Un::Neg, a) => min_of_forms(g, a, !neg, depth + 1, out),
+        // An unsigned distance, or a shell: of one plane, ball or box.
+        Node::Un(Un::Abs, a) if !neg => {
+            let mut inner = vec![];
+            min_of_forms(g, a, false, depth + 1, &mut inner)?;
+            match inner.pop() {
+                Some(f @ (Form::Plane { .. } | Form::Ball { .. } | Form::Box { .. }))
+                    if inner.is_empty() =>
+                {
+                    out.push(Form::Abs {
+                        f: Box::new(f),
+                        k: 0.0,
+                    });
+                    Some(())
+                }
+                _ => None,
+            }
+        }
         Node::Bin(op @ (Bin::Add | Bin::Sub), a, b) => {
             let (x, k) = match (g.constant(a), g.constant(b)) {
                 (_, Some(k)) => (a, if op == Bin::Add { k } else { -k }),
@@ -253,13 +380,36 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
     }
 }
 
-/// `id` as one plane or sphere, or a sphere tiled over a lattice, when it is one. A sphere's
+/// `id` as one plane, sphere or box, or a sphere tiled over a lattice, when it is one. A sphere's
 /// map must be orthonormal on the rows it uses (a rotation, a projection onto some axes):
 /// then `|A p + b| - r` is a distance bound like the others, which the marcher's steps rely
 /// on near the piece.
 fn form(g: &Graph, id: Id) -> Option<Form> {
     if let Some((g, c)) = linear(g, id) {
         return Some(Form::Plane { g, c });
+    }
+    if let Node::BoxDist(v, k) = g.get(id) {
+        let k = k.map(K::get);
+        let mut rows = [[0.0; 4]; 4];
+        let mut b = [0.0; 4];
+        for i in 0..4 {
+            (rows[i], b[i]) = linear(g, v[i])?;
+            b[i] += k[i];
+        }
+        let half = [k[4], k[5], k[6], k[7]];
+        let finite = rows
+            .iter()
+            .flatten()
+            .chain(&b)
+            .chain(&half)
+            .all(|x| x.is_finite());
+        return (finite && k[8].is_finite() && orthonormal(&rows)).then_some(Form::Box {
+            rows,
+            b,
+            half,
+            r: k[8],
+            sign: 1.0,
+        });
     }
     let Node::Length(v, r) = g.get(id) else {
         return None;

@@ -2,8 +2,8 @@
 //!
 //! Each step, every ray still marching finds the cell it is in. A cell whose distance is
 //! bounded away from zero is crossed in one jump to its far side; a cell where the distance is
-//! a few planes and spheres (a halfspace, a hypersphere alone) is intersected exactly, in
-//! `f64`, so rays grazing them do not crawl; in every other cell the ray is grouped
+//! a few planes, spheres and boxes (a halfspace, a hypersphere alone, a glass box from inside
+//! or out) is intersected exactly, in `f64`, so rays grazing them do not crawl; in every other cell the ray is grouped
 //! with the rays in the same cell and their cell's pruned tape runs `LANES` rays at a time.
 //! Steps are over-relaxed (Keinert et al. 2014, "Enhanced Sphere Tracing"): a step of
 //! `omega * d`, taken back to the plain step `d` whenever the unbounding spheres of two
@@ -37,7 +37,7 @@ pub enum MarcherKind {
     /// not (the default).
     #[default]
     Auto,
-    /// Through the frame's pruned cells, with over-relaxed steps and exact planes and spheres,
+    /// Through the frame's pruned cells, with over-relaxed steps and exact planes, spheres and boxes,
     /// whether or not they pay.
     Cells,
     /// Over-relaxed sphere tracing on the whole scene tape: no cells, no exact shortcuts.
@@ -404,7 +404,7 @@ impl Marcher {
                     let keep = (cells.is_outside(cell) && st.keep != unbounded).then_some(st.keep);
                     trace.record(k, p, cell, keep);
                 }
-                if let (false, Some(pieces)) = (r.interior, &cell.exact) {
+                if let Some(pieces) = cell.pieces(r.interior) {
                     self.evaluations += 1;
                     // To the cell's side, and just past it: a root on the side may round to
                     // just beyond it. A tiled ball's crossing of its lattice may stop short
