@@ -342,7 +342,9 @@ impl Marcher {
                     paths.push(paths.last().copied().unwrap_or_else(|| cells.path()));
                 }
                 let mut cell = cells.locate(&mut paths[k], p);
-                if cells.is_outside(cell) {
+                // Where what lies outside the cube is met exactly, the meeting says whether
+                // the ray meets any of it: no escape proof is needed.
+                if cells.is_outside(cell) && cell.pieces(r.interior).is_none() {
                     if st.t >= st.escape_at {
                         // The ray is known to be clear only up to where the last step would
                         // have ended as a plain one (a relaxed step is checked at the next
