@@ -154,6 +154,12 @@ fn form(form: &Form) -> String {
             vec4(*half),
             rows(a)
         ),
+        Form::Hull { planes, sign } => {
+            let planes: Vec<String> = (planes.iter())
+                .map(|(g, c)| format!("{} . p + {c}", vec4(*g)))
+                .collect();
+            format!("hull {sign} max({})", planes.join(", "))
+        }
         Form::Abs { f, k } => format!("|{}| - {k}", self::form(f)),
         Form::Lattice(t) => format!(
             "{:?}-tiled ball |M (q - c) + {}| - {}, c the lattice point of q = B p + {}, B rows {}, M rows {}",

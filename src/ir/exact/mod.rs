@@ -43,7 +43,14 @@ pub enum Form {
         r: f64,
         sign: f64,
     },
-    /// `|f| - k`, `f` a plane, ball or box: a shell (`onion`), or seen from inside objects,
+    /// `sign max_i (g_i . p + c_i)`: a convex polytope (an intersection of halfspaces, the
+    /// 16-cell's `sum |u_i|`, the 24-cell), or its complement where `sign` is `-1`. Outside
+    /// it, the value is a lower bound of the distance (the tapes' own); its surface is exact.
+    Hull {
+        planes: Vec<([f64; 4], f64)>,
+        sign: f64,
+    },
+    /// `|f| - k`, `f` a plane, ball, box or polytope: a shell (`onion`), or seen from inside objects,
     /// where distances are unsigned. A ray meets the form on its own side of `f`.
     Abs { f: Box<Form>, k: f64 },
     /// A ball copied to every point of a lattice (`tile`): each point's copy in its cell.
@@ -84,6 +91,7 @@ impl Form {
                 r,
                 sign,
             } => sign * boxes::value(std::array::from_fn(|i| dot(rows[i], p) + b[i]), *half, *r),
+            Form::Hull { planes, sign } => sign * hull_max(planes, p),
             Form::Abs { f, k } => f.value(p).abs() - k,
             Form::Lattice(t) => t.value(p),
         }
@@ -99,7 +107,7 @@ impl Form {
                 _ => f.closed(),
             },
             Form::Lattice(_) => false,
-            Form::Plane { .. } | Form::Ball { .. } => true,
+            Form::Plane { .. } | Form::Ball { .. } | Form::Hull { .. } => true,
         }
     }
 
@@ -163,6 +171,37 @@ impl Form {
                     Some(Err(clear)) => (value, None, clear),
                 }
             }
+            Form::Hull { planes, sign } => {
+                let (s, k) = side(sign * hull_max(planes, p));
+                // s f - k = sign' max_i (g_i . p + c_i - sign' k)
+                let sign = s * sign;
+                let shift = -sign * k;
+                let (mut enter, mut leave) = (f64::NEG_INFINITY, f64::INFINITY);
+                let mut most = f64::NEG_INFINITY;
+                for (g, c) in planes {
+                    let (a, rate) = (dot(*g, p) + c + shift, dot(*g, d));
+                    most = most.max(a);
+                    // Cyrus-Beck: the ray is inside every halfspace `a + rate t <= 0` between
+                    // the last entry and the first exit.
+                    if rate < 0.0 {
+                        enter = enter.max(a / -rate);
+                    } else if rate > 0.0 {
+                        leave = leave.min(-a / rate);
+                    } else if a > 0.0 {
+                        (enter, leave) = (f64::INFINITY, f64::NEG_INFINITY);
+                    }
+                }
+                let value = sign * most;
+                let first = if value <= 0.0 {
+                    Some(0.0)
+                } else if sign > 0.0 {
+                    (enter <= leave && leave >= 0.0).then(|| enter.max(0.0))
+                } else {
+                    // An unbounded polytope may hold the ray for good.
+                    leave.is_finite().then(|| leave.max(0.0))
+                };
+                (value, first, f64::INFINITY)
+            }
             Form::Abs { .. } | Form::Lattice(_) => unreachable!("meet takes these"),
         };
         Meeting {
@@ -196,6 +235,10 @@ impl Form {
                 r: r - sign * k,
                 sign,
             },
+            Form::Hull { planes, sign } => Form::Hull {
+                planes: planes.into_iter().map(|(g, c)| (g, c + sign * k)).collect(),
+                sign,
+            },
             Form::Abs { f, k: j } => Form::Abs { f, k: j - k },
             Form::Lattice(t) => Form::Lattice(Box::new(t.grown(-k))),
         }
@@ -226,6 +269,10 @@ impl Form {
                 b,
                 half,
                 r,
+                sign: -sign,
+            },
+            Form::Hull { planes, sign } => Form::Hull {
+                planes,
                 sign: -sign,
             },
             Form::Abs { .. } | Form::Lattice(_) => return None,
@@ -345,14 +392,23 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
             min_of_forms(g, b, neg, depth + 1, out)
         }
         Node::Un(Un::Neg, a) => min_of_forms(g, a, !neg, depth + 1, out),
+        // The largest of planes, or a sum of such with positive weights: a convex polytope.
+        Node::Bin(Bin::Max, ..) | Node::Affine(..) if !neg => {
+            let planes = convex(g, id, 0)?;
+            out.push(Form::Hull { planes, sign: 1.0 });
+            Some(())
+        }
         // An unsigned distance, or a shell: of one plane, ball or box.
         Node::Un(Un::Abs, a) if !neg => {
             let mut inner = vec![];
             min_of_forms(g, a, false, depth + 1, &mut inner)?;
             match inner.pop() {
-                Some(f @ (Form::Plane { .. } | Form::Ball { .. } | Form::Box { .. }))
-                    if inner.is_empty() =>
-                {
+                Some(
+                    f @ (Form::Plane { .. }
+                    | Form::Ball { .. }
+                    | Form::Box { .. }
+                    | Form::Hull { .. }),
+                ) if inner.is_empty() => {
                     out.push(Form::Abs {
                         f: Box::new(f),
                         k: 0.0,
@@ -378,6 +434,85 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
         }
         _ => None,
     }
+}
+
+/// The most planes a polytope may have: a 24-cell's 24, and a few more.
+const MAX_PLANES: usize = 32;
+
+/// `max_i (g_i . p + c_i)`.
+#[inline(always)]
+fn hull_max(planes: &[([f64; 4], f64)], p: [f64; 4]) -> f64 {
+    (planes.iter()).fold(f64::NEG_INFINITY, |m, (g, c)| m.max(dot(*g, p) + c))
+}
+
+/// `id` as the largest of a few planes, when it is a convex piecewise-linear function of the
+/// point built from planes by `max`, `|x|` of a plane (`max(x, -x)`), sums and positive
+/// weights (`a + b` is the largest of the sums of their planes, pair by pair).
+fn convex(g: &Graph, id: Id, depth: u32) -> Option<Vec<([f64; 4], f64)>> {
+    if depth > 12 {
+        return None;
+    }
+    if let Some(plane) = linear(g, id) {
+        return Some(vec![plane]);
+    }
+    let scaled = |planes: Vec<([f64; 4], f64)>, k: f64| {
+        (k >= 0.0).then(|| {
+            planes
+                .into_iter()
+                .map(|(v, c)| (v.map(|x| x * k), c * k))
+                .collect()
+        })
+    };
+    let sum = |a: Vec<([f64; 4], f64)>, b: Vec<([f64; 4], f64)>| {
+        (a.len() * b.len() <= MAX_PLANES).then(|| {
+            (a.iter())
+                .flat_map(|(u, c)| {
+                    b.iter()
+                        .map(move |(v, e)| (std::array::from_fn(|i| u[i] + v[i]), c + e))
+                })
+                .collect::<Vec<([f64; 4], f64)>>()
+        })
+    };
+    let planes = match g.get(id) {
+        Node::Bin(Bin::Max, a, b) => {
+            let mut planes = convex(g, a, depth + 1)?;
+            planes.extend(convex(g, b, depth + 1)?);
+            planes
+        }
+        Node::Un(Un::Abs, a) => {
+            let (v, c) = linear(g, a)?;
+            vec![(v, c), (v.map(|x| -x), -c)]
+        }
+        Node::Bin(Bin::Add, a, b) => sum(convex(g, a, depth + 1)?, convex(g, b, depth + 1)?)?,
+        Node::Bin(Bin::Mul, a, b) => match (g.constant(a), g.constant(b)) {
+            (Some(k), _) => scaled(convex(g, b, depth + 1)?, k)?,
+            (_, Some(k)) => scaled(convex(g, a, depth + 1)?, k)?,
+            _ => return None,
+        },
+        Node::Bin(Bin::Sub, a, b) => {
+            let k = g.constant(b)?;
+            (convex(g, a, depth + 1)?.into_iter())
+                .map(|(v, c)| (v, c - k))
+                .collect()
+        }
+        Node::Affine(v, r) => {
+            let mut planes = vec![([0.0; 4], r[4].get())];
+            for i in 0..4 {
+                let k = r[i].get();
+                if k != 0.0 {
+                    planes = sum(planes, scaled(convex(g, v[i], depth + 1)?, k)?)?;
+                }
+            }
+            planes
+        }
+        _ => return None,
+    };
+    (planes.len() <= MAX_PLANES
+        && planes
+            .iter()
+            .flat_map(|(v, c)| v.iter().chain([c]))
+            .all(|x| x.is_finite()))
+    .then_some(planes)
 }
 
 /// `id` as one plane, sphere or box, or a sphere tiled over a lattice, when it is one. A sphere's

@@ -343,8 +343,9 @@ impl Marcher {
                 }
                 let mut cell = cells.locate(&mut paths[k], p);
                 // Where what lies outside the cube is met exactly, the meeting says whether
-                // the ray meets any of it: no escape proof is needed.
-                if cells.is_outside(cell) && cell.pieces(r.interior).is_none() {
+                // the ray meets any of it: no escape proof is needed (where nothing lies
+                // there, the proof is immediate).
+                if cells.is_outside(cell) && cell.pieces(r.interior).is_none_or(|p| p.is_empty()) {
                     if st.t >= st.escape_at {
                         // The ray is known to be clear only up to where the last step would
                         // have ended as a plain one (a relaxed step is checked at the next
