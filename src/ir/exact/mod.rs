@@ -1,5 +1,5 @@
 //! Distances that rays can meet exactly: where a cell's scene distance is the smallest of a
-//! few planes, spheres and boxes (halfspaces, the faces of a box seen from inside, a
+//! few planes, spheres, boxes and polytopes (halfspaces, the faces of a box seen from inside, a
 //! hypersphere alone, a turned and rounded hyperbox, the cut bound of what is far) or shells
 //! of them (`|f| - k`: `onion`, and the unsigned distance that rays inside objects march
 //! on), the marcher intersects each in `f64` instead of stepping towards it. A ray grazing a
@@ -316,7 +316,7 @@ pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
 pub type Members = Vec<(usize, Id)>;
 
 /// The scene's distance `dist` with nearest object `near`, where it is a running min over
-/// objects some of which are a few planes, spheres and boxes: their pieces, and the other objects
+/// objects some of which are a few planes, spheres, boxes and polytopes: their pieces, and the other objects
 /// (object index, distance). None unless both kinds are there.
 pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
     // A partial cell's pieces are met once, to the cell's side, as a ray enters it; a tiled
@@ -329,7 +329,7 @@ pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)>
 }
 
 /// The running min over objects at `dist` (nearest object `near`) split into the pieces of
-/// the objects that are a few planes, spheres and boxes (and, when `open`, tiled balls and
+/// the objects that are a few planes, spheres, boxes and polytopes (and, when `open`, tiled balls and
 /// rounded boxes, whose meeting may stop short: `Form::closed`) and the other objects; None
 /// where `dist` is no such min.
 fn split(g: &Graph, dist: Id, near: Id, open: bool) -> Option<(Vec<Piece>, Members)> {
