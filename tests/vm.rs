@@ -1236,7 +1236,11 @@ fn random_form(rng: &mut Pcg64Mcg, kind: usize) -> hyperslice::ir::exact::Form {
             sign,
         },
         3..=5 => {
-            let half: [f64; 4] = std::array::from_fn(|_| rng.random_range(0.05..1.5));
+            let mut half: [f64; 4] = std::array::from_fn(|_| rng.random_range(0.05..1.5));
+            // Now and then one half-extent far beyond the others (a wall, a long beam).
+            if rng.random_bool(0.2) {
+                half[rng.random_range(0..4)] = 1e8;
+            }
             let least = half.iter().cloned().fold(f64::INFINITY, f64::min);
             // Sharp, shrunk (by less than the box's least half-extent) or rounded.
             let r = match kind {
@@ -1272,10 +1276,11 @@ fn random_form(rng: &mut Pcg64Mcg, kind: usize) -> hyperslice::ir::exact::Form {
             };
             Form::Abs {
                 f: Box::new(f),
+                // A negative `k`: `|f| + c`, which nothing meets.
                 k: if kind == 6 {
                     0.0
                 } else {
-                    rng.random_range(0.0..0.3)
+                    rng.random_range(-0.1..0.3)
                 },
             }
         }

@@ -93,9 +93,11 @@ pub fn meet(
 /// reaches it (`Ok(None)`: it does not), or how far it got (`Err`).
 fn march(u: [f64; 4], w: [f64; 4], half: [f64; 4], r: f64, limit: f64) -> Result<Option<f64>, f64> {
     let at = |t: f64| value(std::array::from_fn(|i| u[i] + t * w[i]), half, r);
-    let scale =
-        half.iter().fold(r, |m, h| m.max(*h)) + u.iter().fold(0.0_f64, |m, x| m.max(x.abs()));
-    let tol = 1e-12 * scale;
+    // Converged within a trillionth of the rounding radius, or where the distance is at the
+    // rounding of what it is computed from here (the march starts on the grown box's slab):
+    // a half-extent far larger than the point's coordinate along it does not enter.
+    let scale = (0..4).fold(r, |m, i| m.max(u[i].abs().min(half[i])));
+    let tol = (1e-12 * r).max(4.0 * f64::EPSILON * scale);
     let (mut t, mut d) = (0.0, at(0.0));
     let mut last: Option<(f64, f64)> = None;
     for _ in 0..ROUNDED_STEPS {

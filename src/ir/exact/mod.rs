@@ -44,13 +44,15 @@ pub enum Form {
         sign: f64,
     },
     /// `sign max_i (g_i . p + c_i)`: a convex polytope (an intersection of halfspaces, the
-    /// 16-cell's `sum |u_i|`, the 24-cell), or its complement where `sign` is `-1`. Outside
-    /// it, the value is a lower bound of the distance (the tapes' own); its surface is exact.
+    /// 16-cell's `sum |u_i|`, the 24-cell), or its complement where `sign` is `-1`. The value
+    /// is the scene's own expression (outside the polytope, a bound of the distance only as
+    /// good as the scene's: unit gradients make it one); the surface is met exactly.
     Hull {
         planes: Vec<([f64; 4], f64)>,
         sign: f64,
     },
-    /// `|f| - k`, `f` a plane, ball, box or polytope: a shell (`onion`), or seen from inside objects,
+    /// `|f| - k`, `f` a plane, ball, box or polytope (`k` may be negative: `|f| + c`, which
+    /// no ray meets): a shell (`onion`), or seen from inside objects,
     /// where distances are unsigned. A ray meets the form on its own side of `f`.
     Abs { f: Box<Form>, k: f64 },
     /// A ball copied to every point of a lattice (`tile`): each point's copy in its cell.
@@ -118,6 +120,13 @@ impl Form {
     /// it gave up before, after crossing `cells` of its lattice's cells (`Tiled::meet`).
     pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> Meeting {
         match self {
+            // `|f| + c` stays at least `c`: no surface.
+            Form::Abs { k, .. } if *k < 0.0 => Meeting {
+                value: self.value(p),
+                first: None,
+                clear: f64::INFINITY,
+                cells: 0,
+            },
             Form::Abs { f, k } => f.meet_side(p, d, Some(*k)),
             Form::Lattice(t) => t.meet(p, d, reach),
             _ => self.meet_side(p, d, None),
