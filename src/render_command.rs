@@ -262,8 +262,8 @@ enum MarcherArg {
     /// on the whole tape (as `whole`, or with plain steps where those cost less) where they do
     /// not (the default).
     Auto,
-    /// Through the frame's pruned cells, with over-relaxed steps and exact planes, spheres, boxes and polytopes,
-    /// whether or not they pay.
+    /// Through the frame's pruned cells, with over-relaxed steps and exact planes, spheres,
+    /// boxes and polytopes, whether or not they pay.
     Cells,
     /// Over-relaxed sphere tracing on the whole scene tape: no cells, no exact shortcuts.
     Whole,

@@ -2,11 +2,11 @@
 //! region rays visit, built lazily as rays reach its cells. Each cell carries the scene (and
 //! interior) tapes pruned to the cell (`ir::prune`), in coordinates local to the cell's
 //! centre, with interval lower bounds of their distances there and, where the distance is a
-//! few planes, spheres, boxes and polytopes in the cell, its exact form (`ir::exact`), for rays outside
-//! objects and for those inside. Inside a cell the pruned
-//! tapes compute what the whole scene tape does wherever the distance is below the cell's
-//! `reach` (a fraction of its edge) and a lower bound of at least `reach` elsewhere, so a ray
-//! step evaluates only the objects near where it is.
+//! few planes, spheres, boxes and polytopes in the cell, its exact form (`ir::exact`), for
+//! rays outside objects and for those inside. Inside a cell the pruned tapes compute what
+//! the whole scene tape does wherever the distance is below the cell's `reach` (a fraction of
+//! its edge) and a lower bound of at least `reach` elsewhere, so a ray step evaluates only the
+//! objects near where it is.
 //!
 //! Precision: cells that hold a surface split until `f32` resolves the marching epsilon in
 //! their local coordinates (`PRECISE_EDGE`), and their tapes are compiled from forms without
@@ -71,9 +71,9 @@ pub struct Cell {
     /// Lower bounds over the cell of the scene's distance and the interior's (minus infinity
     /// where unknown).
     pub lower: [f64; 2],
-    /// The scene distance as the smallest of a few planes, spheres, boxes and polytopes in local coordinates,
-    /// where it is one over the whole cell (halfspaces, walls seen from inside a box, a
-    /// hypersphere alone): rays meet it exactly.
+    /// The scene distance as the smallest of a few planes, spheres, boxes and polytopes in
+    /// local coordinates, where it is one over the whole cell (halfspaces, walls seen from
+    /// inside a box, a hypersphere alone): rays meet it exactly.
     pub exact: Option<Vec<Piece>>,
     /// The interior's unsigned distance as such pieces, for rays inside objects (the faces
     /// of a glass box and the floor under it, each of whose `|f|` is met on the ray's side).

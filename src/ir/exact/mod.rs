@@ -144,8 +144,9 @@ impl Form {
         };
         let (value, first, clear) = match self {
             Form::Plane { g, c } => {
-                let (s, k) = side(dot(*g, p) + c);
-                let value = s * (dot(*g, p) + c) - k;
+                let a = dot(*g, p) + c;
+                let (s, k) = side(a);
+                let value = s * a - k;
                 let rate = s * dot(*g, d);
                 let first = (rate < 0.0).then(|| (value / -rate).max(0.0));
                 (value, first, f64::INFINITY)
@@ -222,70 +223,28 @@ impl Form {
     }
 
     /// The same form plus `k`.
-    fn plus(self, k: f64) -> Form {
-        match self {
-            Form::Plane { g, c } => Form::Plane { g, c: c + k },
-            Form::Ball { rows, b, r, sign } => Form::Ball {
-                rows,
-                b,
-                r: r - sign * k,
-                sign,
-            },
-            Form::Box {
-                rows,
-                b,
-                half,
-                r,
-                sign,
-            } => Form::Box {
-                rows,
-                b,
-                half,
-                r: r - sign * k,
-                sign,
-            },
-            Form::Hull { planes, sign } => Form::Hull {
-                planes: planes.into_iter().map(|(g, c)| (g, c + sign * k)).collect(),
-                sign,
-            },
-            Form::Abs { f, k: j } => Form::Abs { f, k: j - k },
-            Form::Lattice(t) => Form::Lattice(Box::new(t.grown(-k))),
+    fn plus(mut self, k: f64) -> Form {
+        match &mut self {
+            Form::Plane { c, .. } => *c += k,
+            Form::Ball { r, sign, .. } | Form::Box { r, sign, .. } => *r -= *sign * k,
+            Form::Hull { planes, sign } => planes.iter_mut().for_each(|(_, c)| *c += *sign * k),
+            Form::Abs { k: j, .. } => *j -= k,
+            Form::Lattice(t) => **t = t.grown(-k),
         }
+        self
     }
 
     /// The form times `-1`: none for a tiled ball, whose inside is no lattice of cells to
-    /// cross.
-    fn neg(self) -> Option<Form> {
-        Some(match self {
-            Form::Plane { g, c } => Form::Plane {
-                g: g.map(|x| -x),
-                c: -c,
-            },
-            Form::Ball { rows, b, r, sign } => Form::Ball {
-                rows,
-                b,
-                r,
-                sign: -sign,
-            },
-            Form::Box {
-                rows,
-                b,
-                half,
-                r,
-                sign,
-            } => Form::Box {
-                rows,
-                b,
-                half,
-                r,
-                sign: -sign,
-            },
-            Form::Hull { planes, sign } => Form::Hull {
-                planes,
-                sign: -sign,
-            },
+    /// cross, nor a shell (`k - |f|` is met on no side of `f` alone).
+    fn neg(mut self) -> Option<Form> {
+        match &mut self {
+            Form::Plane { g, c } => (*g, *c) = (g.map(|x| -x), -*c),
+            Form::Ball { sign, .. } | Form::Box { sign, .. } | Form::Hull { sign, .. } => {
+                *sign = -*sign
+            }
             Form::Abs { .. } | Form::Lattice(_) => return None,
-        })
+        }
+        Some(self)
     }
 }
 
@@ -325,8 +284,8 @@ pub fn pieces(g: &Graph, dist: Id, near: Id) -> Option<Vec<Piece>> {
 pub type Members = Vec<(usize, Id)>;
 
 /// The scene's distance `dist` with nearest object `near`, where it is a running min over
-/// objects some of which are a few planes, spheres, boxes and polytopes: their pieces, and the other objects
-/// (object index, distance). None unless both kinds are there.
+/// objects some of which are a few planes, spheres, boxes and polytopes: their pieces, and
+/// the other objects (object index, distance). None unless both kinds are there.
 pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
     // A partial cell's pieces are met once, to the cell's side, as a ray enters it; a tiled
     // ball's crossing of its lattice, or a rounded box's march, may stop short of it, so they
@@ -338,9 +297,9 @@ pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)>
 }
 
 /// The running min over objects at `dist` (nearest object `near`) split into the pieces of
-/// the objects that are a few planes, spheres, boxes and polytopes (and, when `open`, tiled balls and
-/// rounded boxes, whose meeting may stop short: `Form::closed`) and the other objects; None
-/// where `dist` is no such min.
+/// the objects that are a few planes, spheres, boxes and polytopes (and, when `open`, tiled
+/// balls and rounded boxes, whose meeting may stop short: `Form::closed`) and the other
+/// objects; None where `dist` is no such min.
 fn split(g: &Graph, dist: Id, near: Id, open: bool) -> Option<(Vec<Piece>, Members)> {
     let (mut exact, mut rest) = (vec![], vec![]);
     split_at(g, (dist, near), open, &mut exact, &mut rest)?;

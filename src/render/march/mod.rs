@@ -2,9 +2,10 @@
 //!
 //! Each step, every ray still marching finds the cell it is in. A cell whose distance is
 //! bounded away from zero is crossed in one jump to its far side; a cell where the distance is
-//! a few planes, spheres, boxes and polytopes (a halfspace, a hypersphere alone, a glass box from inside
-//! or out) is intersected exactly, in `f64`, so rays grazing them do not crawl; in every other cell the ray is grouped
-//! with the rays in the same cell and their cell's pruned tape runs `LANES` rays at a time.
+//! a few planes, spheres, boxes and polytopes (a halfspace, a hypersphere alone, a glass box
+//! from inside or out) is intersected exactly, in `f64`, so rays grazing them do not crawl; in
+//! every other cell the ray is grouped with the rays in the same cell and their cell's pruned
+//! tape runs `LANES` rays at a time.
 //! Steps are over-relaxed (Keinert et al. 2014, "Enhanced Sphere Tracing"): a step of
 //! `omega * d`, taken back to the plain step `d` whenever the unbounding spheres of two
 //! consecutive points fail to overlap. `omega` follows the distance's slope along the ray
@@ -37,8 +38,8 @@ pub enum MarcherKind {
     /// not (the default).
     #[default]
     Auto,
-    /// Through the frame's pruned cells, with over-relaxed steps and exact planes, spheres, boxes and polytopes,
-    /// whether or not they pay.
+    /// Through the frame's pruned cells, with over-relaxed steps and exact planes, spheres,
+    /// boxes and polytopes, whether or not they pay.
     Cells,
     /// Over-relaxed sphere tracing on the whole scene tape: no cells, no exact shortcuts.
     Whole,
