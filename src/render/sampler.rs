@@ -47,16 +47,50 @@ impl SamplerKind {
 
 /// The random numbers of one sample (one path).
 pub struct Sampler {
-    rng: Pcg32,
-    /// The Sobol sample index and the pixel's scrambling seed, when Sobol drives this sample.
-    sobol: Option<(u32, u32)>,
+    /// The PCG stream's seed, and the stream once a number is drawn from it (seeding it costs
+    /// as much as a few Sobol numbers, and most Sobol samples never reach it).
+    key: u64,
+    rng: Option<Pcg32>,
+    /// The Sobol sample, when Sobol drives this sample.
+    sobol: Option<Sobol>,
     /// The next Sobol dimension.
     dim: u32,
     /// The last set of four Sobol dimensions computed (`u32::MAX`: none yet) and its values:
-    /// `sample_4d` computes four at once, the same numbers `sample` does one at a time, for
-    /// about the price of one.
+    /// a set computes four at once, the same numbers `sobol_burley::sample` does one at a
+    /// time, for about the price of one.
     set: u32,
     four: [f32; 4],
+}
+
+/// One pixel's Owen-scrambled Sobol sequence (`seed`) at one sample index: `sobol_burley::sample_4d`
+/// taken apart, with what depends on the sample alone (the shuffled index, the seed's part of
+/// the scramble) computed once instead of for every set of four dimensions.
+#[derive(Clone, Copy, Debug)]
+struct Sobol {
+    seed: u32,
+    /// The sample index, bit-reversed and shuffled by the pixel's seed.
+    shuffled: u32,
+}
+
+impl Sobol {
+    fn new(index: u32, seed: u32) -> Sobol {
+        use sobol_burley::parts::{hash, owen_scramble_rev};
+        let shuffled = owen_scramble_rev(index.reverse_bits(), hash(seed ^ 0x79c68e4a));
+        Sobol { seed, shuffled }
+    }
+
+    /// Dimensions `4 set .. 4 set + 4` (`set` below `NUM_DIMENSION_SETS_4D`), as
+    /// `sobol_burley::sample_4d(index, set, seed)` computes them.
+    #[inline]
+    fn four(&self, set: u32) -> [f32; 4] {
+        use sobol_burley::parts::{Int4, hash_int4, owen_scramble_int4_rev, sobol_int4_rev};
+        let sobol = sobol_int4_rev(self.shuffled, set);
+        let scramble: Int4 = [self.seed.wrapping_mul(0x9c8f2d3b) ^ set; 4].into();
+        let scramble = scramble ^ [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8].into();
+        owen_scramble_int4_rev(sobol, hash_int4(scramble))
+            .reverse_bits()
+            .to_f32_norm()
+    }
 }
 
 /// A 64-bit mix (SplitMix64's finaliser).
@@ -71,11 +105,11 @@ impl Sampler {
     /// frame `frame`.
     pub fn new(kind: SamplerKind, seed: u64, frame: u32, pixel: u64, sample: u32) -> Sampler {
         let key = mix(mix(mix(seed ^ 0x9e3779b97f4a7c15) ^ frame as u64) ^ pixel);
-        let rng = Pcg32::seed_from_u64(mix(key ^ sample as u64));
         let sobol = (kind == SamplerKind::Sobol && sample < 1 << 16)
-            .then_some((sample, (key ^ (key >> 32)) as u32));
+            .then(|| Sobol::new(sample, (key ^ (key >> 32)) as u32));
         Sampler {
-            rng,
+            key: mix(key ^ sample as u64),
+            rng: None,
             sobol,
             dim: 0,
             set: u32::MAX,
@@ -85,16 +119,19 @@ impl Sampler {
 
     /// A uniform number in `[0, 1)`.
     pub fn get(&mut self) -> f64 {
-        match self.sobol {
-            Some((index, seed)) if self.dim < sobol_burley::NUM_DIMENSIONS => {
+        match &self.sobol {
+            Some(sobol) if self.dim < sobol_burley::NUM_DIMENSIONS => {
                 let (set, lane) = (self.dim / 4, (self.dim % 4) as usize);
                 if set != self.set {
-                    (self.set, self.four) = (set, sobol_burley::sample_4d(index, set, seed));
+                    (self.set, self.four) = (set, sobol.four(set));
                 }
                 self.dim += 1;
                 self.four[lane] as f64
             }
-            _ => self.rng.random(),
+            _ => (self
+                .rng
+                .get_or_insert_with(|| Pcg32::seed_from_u64(self.key)))
+            .random(),
         }
     }
 
@@ -139,7 +176,8 @@ mod tests {
     fn four_at_a_time_is_one_at_a_time() {
         for (pixel, sample) in [(0, 0), (17, 5), (123_456, 65_535)] {
             let mut s = Sampler::new(SamplerKind::Sobol, 9, 2, pixel, sample);
-            let (index, seed) = s.sobol.expect("Sobol drives these samples");
+            let (index, Sobol { seed, .. }) =
+                (sample, s.sobol.expect("Sobol drives these samples"));
             let mut expected = vec![];
             for (segment, take) in [(0, 7), (1, 3), (3, 13), (20, 2)] {
                 s.start_segment(segment);
@@ -148,6 +186,22 @@ mod tests {
                     expected.push(sobol_burley::sample(index, dim, seed) as f64);
                     assert_eq!(s.get(), *expected.last().unwrap(), "dimension {dim}");
                 }
+            }
+        }
+    }
+
+    /// The sequence taken apart gives `sample_4d`'s numbers in every set of four dimensions.
+    #[test]
+    fn sets_are_sample_4d() {
+        for (index, seed) in [(0, 0), (1, 7), (31, 0xdead_beef), (65_535, u32::MAX)] {
+            let sobol = Sobol::new(index, seed);
+            for set in 0..sobol_burley::NUM_DIMENSION_SETS_4D {
+                let expected = sobol_burley::sample_4d(index, set, seed);
+                assert_eq!(
+                    sobol.four(set),
+                    expected,
+                    "index {index} seed {seed} set {set}"
+                );
             }
         }
     }
