@@ -1135,7 +1135,7 @@ fn pruned_cells_agree_with_the_whole_tape() {
 fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
     use hyperslice::ir::exact::Form;
     let mut rng = Pcg64Mcg::seed_from_u64(21);
-    let (mut met, mut missed, mut gave_up) = (0, 0, 0);
+    let (mut met, mut missed) = (0, 0);
     for i in 0..16000 {
         let form = random_form(&mut rng, i % 9);
         let (p, d) = if i % 3 == 0 {
@@ -1157,17 +1157,10 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
             (m.value - at(0.0)).abs() <= 1e-12 * (1.0 + at(0.0).abs()),
             "{form:?}"
         );
-        // Only a rounded box's march may give up, and not before the ray is near it.
-        let open = match &form {
-            Form::Box { r, .. } => *r > 0.0,
-            Form::Abs { f, k } => matches!(**f, Form::Box { r, .. } if r + k.abs() > 0.0),
-            _ => false,
-        };
-        assert!(
-            m.clear == f64::INFINITY || (open && m.first.is_none()),
-            "{form:?}: {m:?}"
-        );
-        let until = m.first.unwrap_or(m.clear.min(50.0));
+        // Every form but a tiled ball is met in closed form: it knows where the ray meets it
+        // or that it never does.
+        assert!(m.clear == f64::INFINITY, "{form:?}: {m:?}");
+        let until = m.first.unwrap_or(50.0);
         for k in 0..200 {
             let t = until * k as f64 / 200.0;
             assert!(
@@ -1185,9 +1178,6 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
                 at(t)
             );
             met += 1;
-        } else if m.clear.is_finite() {
-            assert!(m.clear > 0.0, "{form:?}: no progress");
-            gave_up += 1;
         } else {
             // Missed: the distance stays positive all along (checked above to 50), and
             // beyond what the samples saw, nowhere near zero.
@@ -1199,8 +1189,6 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
         }
     }
     assert!(met > 1500 && missed > 3000, "{met} met, {missed} missed");
-    // Grazing rays are few: a march gives up on at most 1 in 200.
-    assert!(gave_up * 200 < met + missed, "{gave_up} gave up");
 }
 
 /// Random orthonormal rows (a rotation), by Gram-Schmidt.

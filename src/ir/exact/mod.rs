@@ -4,8 +4,8 @@
 //! of them (`|f| - k`: `onion`, and the unsigned distance that rays inside objects march
 //! on), the marcher intersects each in `f64` instead of stepping towards it. A ray grazing a
 //! plane or a large sphere would otherwise take thousands of steps, each a little shorter
-//! than the gap it closes. A rounded box is met by a march of its own along the ray
-//! (`boxes`), and a ball tiled over a lattice cell by cell (`lattice`).
+//! than the gap it closes. A box, sharp or rounded, is met in closed form piece by piece of the
+//! ray (`boxes`), and a ball tiled over a lattice cell by cell (`lattice`).
 
 mod boxes;
 mod lattice;
@@ -99,25 +99,20 @@ impl Form {
         }
     }
 
-    /// Whether `meet` always finds the first point or says there is none: not for a rounded
-    /// box, whose march may stop short of a ray grazing it, nor a tiled ball's crossing.
+    /// Whether `meet` always finds the first point or says there is none: not for a tiled
+    /// ball, whose crossing of its lattice may give up.
     fn closed(&self) -> bool {
         match self {
-            Form::Box { r, .. } => *r <= 0.0,
-            Form::Abs { f, k } => match **f {
-                Form::Box { r, .. } => r + k.abs() <= 0.0,
-                _ => f.closed(),
-            },
+            Form::Abs { f, .. } => f.closed(),
             Form::Lattice(_) => false,
-            Form::Plane { .. } | Form::Ball { .. } | Form::Hull { .. } => true,
+            Form::Plane { .. } | Form::Ball { .. } | Form::Box { .. } | Form::Hull { .. } => true,
         }
     }
 
     /// What the ray from `p` along `d` meets: the first `t >= 0` at which it reaches the
     /// surface, coming from where the distance is positive, if it does before `clear`, how far
-    /// it is known to meet none: infinity for a plane, a ball or a sharp box, as far as its
-    /// march got for a rounded box that a ray grazes, at least `limit` for a tiled ball unless
-    /// it gave up before, after crossing `cells` of its lattice's cells (`Tiled::meet`).
+    /// it is known to meet none: infinity but for a tiled ball, where it is at least `limit`
+    /// unless its crossing gave up before, after `cells` of its lattice's cells (`Tiled::meet`).
     pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> Meeting {
         match self {
             // `|f| + c` stays at least `c`: no surface.
@@ -175,11 +170,11 @@ impl Form {
                 let (s, k) = side(sign * v);
                 let sign = s * sign;
                 let value = sign * v - k;
-                match (value > 0.0).then(|| boxes::meet(u, w, (*half, r + sign * k), sign < 0.0)) {
-                    None => (value, Some(0.0), f64::INFINITY),
-                    Some(Ok(t)) => (value, t, f64::INFINITY),
-                    Some(Err(clear)) => (value, None, clear),
-                }
+                let first = match value > 0.0 {
+                    true => boxes::meet(u, w, (*half, r + sign * k), sign < 0.0),
+                    false => Some(0.0),
+                };
+                (value, first, f64::INFINITY)
             }
             Form::Hull { planes, sign } => {
                 let (s, k) = side(sign * hull_max(planes, p));
@@ -288,8 +283,7 @@ pub type Members = Vec<(usize, Id)>;
 /// the other objects (object index, distance). None unless both kinds are there.
 pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)> {
     // A partial cell's pieces are met once, to the cell's side, as a ray enters it; a tiled
-    // ball's crossing of its lattice, or a rounded box's march, may stop short of it, so they
-    // are the rest's.
+    // ball's crossing of its lattice may stop short of it, so tiled balls are the rest's.
     let (exact, rest) = split(g, dist, near, false)?;
     let surface = |p: &Piece| !matches!(p.form, Form::Plane { g, .. } if g == [0.0; 4]);
     (exact.iter().any(surface) && !rest.is_empty() && exact.len() <= MAX_PIECES)
@@ -298,7 +292,7 @@ pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)>
 
 /// The running min over objects at `dist` (nearest object `near`) split into the pieces of
 /// the objects that are a few planes, spheres, boxes and polytopes (and, when `open`, tiled
-/// balls and rounded boxes, whose meeting may stop short: `Form::closed`) and the other
+/// balls, whose meeting may stop short: `Form::closed`) and the other
 /// objects; None where `dist` is no such min.
 fn split(g: &Graph, dist: Id, near: Id, open: bool) -> Option<(Vec<Piece>, Members)> {
     let (mut exact, mut rest) = (vec![], vec![]);
@@ -506,7 +500,8 @@ fn form(g: &Graph, id: Id) -> Option<Form> {
             .chain(&b)
             .chain(&half)
             .all(|x| x.is_finite());
-        return (finite && k[8].is_finite() && orthonormal(&rows)).then_some(Form::Box {
+        let sized = half.iter().all(|h| *h >= 0.0);
+        return (finite && sized && k[8].is_finite() && orthonormal(&rows)).then_some(Form::Box {
             rows,
             b,
             half,
