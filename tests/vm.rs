@@ -1133,7 +1133,6 @@ fn pruned_cells_agree_with_the_whole_tape() {
 /// zero, and nowhere before it; when it meets none, the distance stays positive.
 #[test]
 fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
-    use hyperslice::ir::exact::Form;
     let mut rng = Pcg64Mcg::seed_from_u64(21);
     let (mut met, mut missed) = (0, 0);
     for i in 0..16000 {
