@@ -9,6 +9,7 @@ use crate::math::kernel::box_dist;
 
 /// Where the line `u + t w` is inside the sharp box of half-extents `half`: `(enter, leave)`,
 /// or none.
+#[inline(always)]
 fn slab(u: [f64; 4], w: [f64; 4], half: [f64; 4]) -> Option<(f64, f64)> {
     let (mut enter, mut leave) = (f64::NEG_INFINITY, f64::INFINITY);
     for i in 0..4 {
@@ -38,7 +39,8 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
 
 /// How the ray `u + t w` (`w` a unit vector) meets `box(u) <= r`: with `inside` false, where
 /// it first enters it from outside; with `inside` true, where it leaves it from inside (none:
-/// it never does).
+/// it never does). Inlined: its arguments passed through memory stalled their loads.
+#[inline(always)]
 pub fn meet(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), inside: bool) -> Option<f64> {
     let span = slab(u, w, half.map(|h| h + r));
     if r <= 0.0 {

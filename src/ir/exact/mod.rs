@@ -113,6 +113,7 @@ impl Form {
     /// surface, coming from where the distance is positive, if it does before `clear`, how far
     /// it is known to meet none: infinity but for a tiled ball, where it is at least `limit`
     /// unless its crossing gave up before, after `cells` of its lattice's cells (`Tiled::meet`).
+    #[inline(always)]
     pub fn meet(&self, p: [f64; 4], d: [f64; 4], reach: (f64, usize)) -> Meeting {
         match self {
             // `|f| + c` stays at least `c`: no surface.
