@@ -1415,6 +1415,56 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
     assert!(!tiled(&parts) && rest.len() == 2, "{parts:?} {rest:?}");
 }
 
+/// Where the objects' pieces are more than a cell meets one by one, a partial cell keeps
+/// those of the objects with fewest pieces exact and leaves the others to the tape: a floor
+/// and a lamp beside seven rounded boxes and a custom field (which once made the whole cell
+/// marched on its tape: nine pieces were too many to be exact at all).
+#[test]
+fn partial_cells_keep_the_objects_of_fewest_pieces_exact() {
+    use hyperslice::ir::exact::{Form, partition};
+    let boxes: Vec<String> = (0..7)
+        .map(|i| {
+            format!(
+                "hyperbox(0.3) |> round(0.1) |> translate([{}, 0.4, 0, 0])",
+                i as f64 - 3.0
+            )
+        })
+        .collect();
+    let scene = compile_text(&format!(
+        "object boxes {{ shape = union({}) }}\n\
+         object floor {{ shape = halfspace([0, 1, 0, 0], offset: 0) }}\n\
+         object lamp {{ shape = hypersphere(0.5) |> translate([0, 4, 0, 0]) }}\n\
+         object blob {{ shape = sdf |p| length(p - [0, 2, 3, 0]) - 0.5 + 0.1 * sin(p.x * 1rad) }}",
+        boxes.join(", ")
+    ));
+    let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
+    let (parts, rest) = partition(&program.ir.graph, program.ir.distance, program.ir.nearest)
+        .expect("the floor and the lamp apart from the rest");
+    let objects: Vec<f64> = parts.iter().map(|p| p.object).collect();
+    assert_eq!(objects, [1.0, 2.0], "{parts:?}");
+    assert!(
+        matches!(parts[0].form, Form::Plane { .. }) && matches!(parts[1].form, Form::Ball { .. })
+    );
+    let rest: Vec<usize> = rest.iter().map(|(o, _)| *o).collect();
+    assert_eq!(rest, [0, 3]);
+    // With room for them, the boxes are exact too.
+    let scene = compile_text(&format!(
+        "object boxes {{ shape = union({}) }}\n\
+         object blob {{ shape = sdf |p| length(p - [0, 2, 3, 0]) - 0.5 + 0.1 * sin(p.x * 1rad) }}",
+        boxes.join(", ")
+    ));
+    let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
+    let (parts, rest) = partition(&program.ir.graph, program.ir.distance, program.ir.nearest)
+        .expect("the boxes apart from the field");
+    assert!(
+        parts.len() == 7
+            && parts
+                .iter()
+                .all(|p| matches!(p.form, Form::Box { r, .. } if r > 0.0))
+    );
+    assert_eq!(rest.len(), 1);
+}
+
 /// A box pruned to a region where at most one of its faces can have the point outside it
 /// becomes the largest of its candidate faces' planes (`ir::prune`), on both sides of the
 /// surface; elsewhere it stays a box. At random points of random regions around turned,

@@ -271,6 +271,7 @@ impl Probe {
         let pace = Pace {
             part: camera.len().div_ceil(4),
             piece: CHUNK,
+            grow: false,
         };
         let marched = generations(&mut marcher, cells, camera.clone(), sight, (pace, give_up));
         let (mut cells, all) = match marched {
@@ -442,8 +443,9 @@ fn whole_alone(
 ) -> Result<(Work, Vec<Ray>), Work> {
     let give_up = |work: &Work, _| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
     let pace = Pace {
-        part: CHUNK,
+        part: usize::MAX,
         piece: CHUNK,
+        grow: true,
     };
     let (work, all) = generations(marcher, whole, sight.rays(), sight, (pace, give_up))?;
     match work.crawls() {
@@ -465,11 +467,14 @@ const WORSE: f64 = 2.0;
 const BUDGET: f64 = 1.0;
 
 /// How a march of the probe takes a generation's rays: in parts of `part` rays, each marched
-/// `piece` rays at a time, its cost checked after each piece.
+/// `piece` rays at a time, its cost checked after each piece; where it may `grow`, each piece
+/// of a part twice as many as the last (the tape runs `LANES` points at a time: pieces of 16
+/// rays ran it a quarter full, and took twice as long as the same rays at once).
 #[derive(Clone, Copy)]
 struct Pace {
     part: usize,
     piece: usize,
+    grow: bool,
 }
 
 /// A march of the probe that takes its rays all at once and never gives up.
@@ -477,6 +482,7 @@ const NEVER: (Pace, fn(&Work, bool) -> bool) = (
     Pace {
         part: usize::MAX,
         piece: usize::MAX,
+        grow: false,
     },
     |_, _| false,
 );
@@ -497,13 +503,27 @@ fn generations(
     for generation in 0..=BOUNCES {
         found.clear();
         for part in rays.chunks(pace.part) {
-            let pieces = part.len().div_ceil(pace.piece);
-            for (k, piece) in part.chunks(pace.piece).enumerate() {
-                march(marcher, field, piece, limits, &mut hits, &mut work);
-                if give_up(&work, k + 1 == pieces) {
+            let (mut from, mut size) = (0, pace.piece);
+            while from < part.len() {
+                let to = part.len().min(from.saturating_add(size));
+                march(
+                    marcher,
+                    field,
+                    &part[from..to],
+                    limits,
+                    &mut hits,
+                    &mut work,
+                );
+                if give_up(&work, to == part.len()) {
                     return Err(work);
                 }
                 found.extend_from_slice(&hits);
+                from = to;
+                size = if pace.grow {
+                    size.saturating_mul(2)
+                } else {
+                    size
+                };
             }
         }
         all.extend_from_slice(&rays);
@@ -546,7 +566,9 @@ fn march(
     }
 }
 
-/// The mirror bounces of the rays that hit a surface, from just off it on the ray's side.
+/// The mirror bounces of the rays that hit a surface, from just off it on the ray's side. The
+/// normals are evaluated `LANES` hits of one object at a time (one at a time, they were most
+/// of a small frame's probe).
 fn bounce(
     rays: &[Ray],
     hits: &[Hit],
@@ -554,23 +576,36 @@ fn bounce(
     grad: &mut Regs<Dual, LANES>,
     limits: Limits,
 ) -> Vec<Ray> {
+    let met: Vec<(usize, &Ray, DVec4)> = (rays.iter().zip(hits))
+        .filter_map(|(r, h)| match *h {
+            Hit::Surface { t, object } => Some((object, r, r.o + r.d * t)),
+            _ => None,
+        })
+        .collect();
+    let mut order: Vec<usize> = (0..met.len()).collect();
+    order.sort_by_key(|&i| met[i].0);
+    let mut normals = vec![DVec4::ZERO; met.len()];
+    for group in order.chunk_by(|&a, &b| met[a].0 == met[b].0) {
+        for lanes in group.chunks(LANES) {
+            let points: Vec<[f32; 4]> = lanes
+                .iter()
+                .map(|&i| met[i].2.as_vec4().to_array())
+                .collect();
+            let g = crate::vm::gradient(&objects[met[lanes[0]].0].distance, grad, &points, 0.0);
+            for (&i, g) in lanes.iter().zip(g) {
+                normals[i] = DVec4::from_array(g.g.map(f64::from)).normalize_or_zero();
+            }
+        }
+    }
     let mut out = vec![];
-    for (r, h) in rays.iter().zip(hits) {
-        let Hit::Surface { t, object } = *h else {
-            continue;
-        };
-        let p = r.o + r.d * t;
-        let eps = epsilon_at(p, limits.epsilon);
-        let point = [p.as_vec4().to_array()];
-        let g = crate::vm::gradient(&objects[object].distance, grad, &point, 0.0)[0];
-        let n = DVec4::from_array(g.g.map(f64::from)).normalize_or_zero();
+    for (&(_, r, p), n) in met.iter().zip(normals) {
         // Facing the ray, whichever side of the surface it came from.
         let n = if n.dot(r.d) > 0.0 { -n } else { n };
         if n == DVec4::ZERO {
             continue;
         }
         out.push(Ray {
-            o: p + n * (4.0 * eps),
+            o: p + n * (4.0 * epsilon_at(p, limits.epsilon)),
             d: (r.d - 2.0 * r.d.dot(n) * n).normalize(),
             tmax: f64::INFINITY,
             // A mirror bounce stays on the side the ray came from.

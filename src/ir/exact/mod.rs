@@ -293,30 +293,65 @@ pub fn partition(g: &Graph, dist: Id, near: Id) -> Option<(Vec<Piece>, Members)>
 
 /// The running min over objects at `dist` (nearest object `near`) split into the pieces of
 /// the objects that are a few planes, spheres, boxes and polytopes (and, when `open`, tiled
-/// balls, whose meeting may stop short: `Form::closed`) and the other
-/// objects; None where `dist` is no such min.
+/// balls, whose meeting may stop short: `Form::closed`) and the other objects; None where
+/// `dist` is no such min. Objects whose pieces would make more than `MAX_PIECES` are the
+/// rest's, those of fewest pieces taken first: a floor and a lamp stay exact beside a union
+/// of many boxes. The pieces keep the objects' order, which settles ties.
 fn split(g: &Graph, dist: Id, near: Id, open: bool) -> Option<(Vec<Piece>, Members)> {
-    let (mut exact, mut rest) = (vec![], vec![]);
-    split_at(g, (dist, near), open, &mut exact, &mut rest)?;
+    let mut members = vec![];
+    split_at(g, (dist, near), open, &mut members)?;
     // The running min starts at +infinity, which is no surface.
-    exact.retain(|p| !matches!(p.form, Form::Plane { g, c } if g == [0.0; 4] && c.is_infinite()));
+    let start = |f: &Form| matches!(f, Form::Plane { g, c } if *g == [0.0; 4] && c.is_infinite());
+    for (_, _, forms) in &mut members {
+        if let Some(forms) = forms {
+            forms.retain(|f| !start(f));
+        }
+    }
+    // A constant object (`object < 0`: the start, what the cut objects folded into) must be
+    // exact; of the others, those of fewest pieces first.
+    let mut order: Vec<usize> = (0..members.len()).collect();
+    order.sort_by_key(|&i| {
+        let (object, _, forms) = &members[i];
+        (*object >= 0.0, forms.as_ref().map_or(usize::MAX, Vec::len))
+    });
+    let mut exact_ones = vec![false; members.len()];
+    let mut count = 0;
+    for i in order {
+        match &members[i] {
+            (object, _, Some(forms)) if *object < 0.0 || count + forms.len() <= MAX_PIECES => {
+                count += forms.len();
+                exact_ones[i] = true;
+            }
+            (object, ..) if *object >= 0.0 => {}
+            _ => return None,
+        }
+    }
+    let (mut exact, mut rest) = (vec![], vec![]);
+    for ((object, member, forms), exact_one) in members.into_iter().zip(exact_ones) {
+        match forms {
+            Some(forms) if exact_one => {
+                exact.extend(forms.into_iter().map(|form| Piece { form, object }))
+            }
+            _ => rest.push((object as usize, member)),
+        }
+    }
     Some((exact, rest))
 }
 
-/// `split` into `exact` and `rest`: the running min-with-id's `best` first, then its
-/// member `d` of object `id`; where the min starts, the object is a constant (+infinity,
-/// what the cut objects folded into, or the first object).
+/// The members of the running min-with-id at `dist` (nearest object `near`): its `best`
+/// first, then its member `d` of object `id`; where the min starts, the object is a constant
+/// (+infinity, what the cut objects folded into, or the first object). Each as (object,
+/// distance, its forms where it is a min of them, all closed unless `open`).
 fn split_at(
     g: &Graph,
     (dist, near): (Id, Id),
     open: bool,
-    exact: &mut Vec<Piece>,
-    rest: &mut Members,
+    members: &mut Vec<(f64, Id, Option<Vec<Form>>)>,
 ) -> Option<()> {
     let (member, object) = match (g.get(dist), g.get(near)) {
         (Node::Proj(t, 0), Node::Proj(u, 1)) if t == u => match g.get(t) {
             Node::MinId(best, best_id, d, id) => {
-                split_at(g, (best, best_id), open, exact, rest)?;
+                split_at(g, (best, best_id), open, members)?;
                 (d, id.get())
             }
             _ => return None,
@@ -324,13 +359,9 @@ fn split_at(
         _ => (dist, g.constant(near)?),
     };
     let mut forms = vec![];
-    match min_of_forms(g, member, false, 0, &mut forms) {
-        Some(()) if open || forms.iter().all(Form::closed) => {
-            exact.extend(forms.into_iter().map(|form| Piece { form, object }))
-        }
-        _ if object >= 0.0 => rest.push((object as usize, member)),
-        _ => return None,
-    }
+    let exact = min_of_forms(g, member, false, 0, &mut forms).is_some()
+        && (open || forms.iter().all(Form::closed));
+    members.push((object, member, exact.then_some(forms)));
     Some(())
 }
 
