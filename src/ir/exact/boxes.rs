@@ -22,7 +22,9 @@ fn slab(u: [f64; 4], w: [f64; 4], half: [f64; 4]) -> Option<(f64, f64)> {
             }
             continue;
         }
-        let (a, b) = ((-half[i] - u[i]) / w[i], (half[i] - u[i]) / w[i]);
+        // One division: the two planes' roots are within 1.5 ulp of dividing each.
+        let inv = 1.0 / w[i];
+        let (a, b) = ((-half[i] - u[i]) * inv, (half[i] - u[i]) * inv);
         enter = enter.max(a.min(b));
         leave = leave.min(a.max(b));
     }
@@ -42,7 +44,15 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
 /// it never does). Inlined: its arguments passed through memory stalled their loads.
 #[inline(always)]
 pub fn meet(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), inside: bool) -> Option<f64> {
-    let span = slab(u, w, half.map(|h| h + r));
+    let grown = half.map(|h| h + r);
+    // Most rays from outside pass far from a box: first, whether they meet the ball around
+    // its grown corners at all (a ray starting outside it that heads away, or passes wide).
+    let dot = |a: [f64; 4], b: [f64; 4]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
+    let (b, c) = (dot(u, w), dot(u, u) - dot(grown, grown));
+    if !inside && c > 0.0 && (b > 0.0 || b * b < c) {
+        return None;
+    }
+    let span = slab(u, w, grown);
     if r <= 0.0 {
         return match (span, inside) {
             (Some((enter, leave)), false) if leave >= 0.0 => Some(enter.max(0.0)),
