@@ -1190,6 +1190,56 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
     assert!(met > 1500 && missed > 3000, "{met} met, {missed} missed");
 }
 
+/// Boxes met from outside where the early test against the ball around them once missed
+/// them (found in review): a box with a zero row, whose `A d` is shorter than a unit vector;
+/// rays from 1e8 and 1e9 away, where `|u|^2 - (u.w)^2` cancels; and a direction along a face
+/// too small to invert (subnormal), which made `0 * inf` of a root.
+#[test]
+fn boxes_are_met_from_far_and_along_short_directions() {
+    use hyperslice::ir::exact::Form;
+    let mut rows = [[0.0; 4]; 4];
+    (0..4).for_each(|i| rows[i][i] = 1.0);
+    let unit_box = |rows, r| Form::Box {
+        rows,
+        b: [0.0; 4],
+        half: [1.0; 4],
+        r,
+        sign: 1.0,
+    };
+    let mut extruded = rows;
+    extruded[3] = [0.0; 4];
+    for r in [0.0, 0.1] {
+        let (p, d) = ([-5.0, 0.0, 0.0, 0.0], [0.6, 0.0, 0.0, 0.8]);
+        let first = unit_box(extruded, r).meet(p, d, (f64::INFINITY, 0)).first;
+        let want = (4.0 - r) / 0.6;
+        assert!(
+            first.is_some_and(|t| (t - want).abs() < 1e-9),
+            "r {r}: {first:?}, want {want}"
+        );
+    }
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    for far in [1e6, 1e8, 1e9] {
+        for r in [0.0, 0.1] {
+            for _ in 0..500 {
+                let p = random_unit(&mut rng).map(|x| x * far);
+                let aim = random_point(&mut rng, 0.9);
+                let v: [f64; 4] = std::array::from_fn(|a| aim[a] - p[a]);
+                let n = v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                let d = v.map(|x| x / n);
+                let m = unit_box(rows, r).meet(p, d, (f64::INFINITY, 0));
+                assert!(m.first.is_some(), "from {p:?} at {aim:?}: {m:?}");
+            }
+        }
+    }
+    for wx in [0.0, 1e-300, 1e-310] {
+        let m = unit_box(rows, 0.0).meet([-1.0, -3.0, 0.0, 0.0], [wx, 1.0, 0.0, 0.0], (1e3, 0));
+        assert!(
+            m.first.is_some_and(|t| (t - 2.0).abs() < 1e-12),
+            "w_x {wx:e}: {m:?}"
+        );
+    }
+}
+
 /// Random orthonormal rows (a rotation), by Gram-Schmidt.
 fn random_rotation(rng: &mut Pcg64Mcg) -> [[f64; 4]; 4] {
     let mut rows = [[0.0; 4]; 4];

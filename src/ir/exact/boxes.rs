@@ -16,14 +16,15 @@ fn slab(u: [f64; 4], w: [f64; 4], half: [f64; 4]) -> Option<(f64, f64)> {
         if half[i] < 0.0 {
             return None;
         }
-        if w[i] == 0.0 {
+        // One division: the two planes' roots are within 1.5 ulp of dividing each. A
+        // direction too small to invert (zero, or subnormal) runs along the planes.
+        let inv = 1.0 / w[i];
+        if !inv.is_finite() {
             if u[i].abs() > half[i] {
                 return None;
             }
             continue;
         }
-        // One division: the two planes' roots are within 1.5 ulp of dividing each.
-        let inv = 1.0 / w[i];
         let (a, b) = ((-half[i] - u[i]) * inv, (half[i] - u[i]) * inv);
         enter = enter.max(a.min(b));
         leave = leave.min(a.max(b));
@@ -47,10 +48,16 @@ pub fn meet(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), inside: bool) 
     let grown = half.map(|h| h + r);
     // Most rays from outside pass far from a box: first, whether they meet the ball around
     // its grown corners at all (a ray starting outside it that heads away, or passes wide).
+    // `w` need not be a unit vector (a row of `A` may be zero), and the ray's offset from the
+    // centre is taken apart from its start, not as `|u|^2 - b^2`, which cancels far away.
     let dot = |a: [f64; 4], b: [f64; 4]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
-    let (b, c) = (dot(u, w), dot(u, u) - dot(grown, grown));
-    if !inside && c > 0.0 && (b > 0.0 || b * b < c) {
-        return None;
+    let (b, rr) = (dot(u, w), dot(grown, grown));
+    if !inside && dot(u, u) > rr {
+        let s = b / dot(w, w);
+        let off: [f64; 4] = std::array::from_fn(|i| u[i] - s * w[i]);
+        if b > 0.0 || dot(off, off) > rr * (1.0 + 1e-12) {
+            return None;
+        }
     }
     let span = slab(u, w, grown);
     if r <= 0.0 {
