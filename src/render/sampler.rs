@@ -84,12 +84,7 @@ impl Sobol {
     #[inline]
     fn four(&self, set: u32) -> [f32; 4] {
         use sobol_burley::parts::{Int4, hash_int4, owen_scramble_int4_rev};
-        let nibbles = &nibbles()[set as usize];
-        let mut sobol = [0u32; 4];
-        for (q, table) in nibbles.iter().enumerate() {
-            let m = &table[(self.shuffled >> (28 - 4 * q)) as usize & 15];
-            sobol = std::array::from_fn(|lane| sobol[lane] ^ m[lane]);
-        }
+        let sobol = point(self.shuffled, set);
         let scramble: Int4 = [self.seed.wrapping_mul(0x9c8f2d3b) ^ set; 4].into();
         let scramble = scramble ^ [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8].into();
         owen_scramble_int4_rev(sobol.into(), hash_int4(scramble))
@@ -104,6 +99,17 @@ impl Sobol {
 /// (a loop of random length, whose exit the branch predictor missed every time). The Sobol
 /// point is linear in the index's bits, so each entry is `sobol_int4_rev` of the nibble alone.
 type Nibbles = [[[u32; 4]; 16]; 4];
+
+/// `sobol_int4_rev(shuffled, set)` from the tables.
+#[inline]
+fn point(shuffled: u32, set: u32) -> [u32; 4] {
+    let mut sobol = [0u32; 4];
+    for (q, table) in nibbles()[set as usize].iter().enumerate() {
+        let m = &table[(shuffled >> (28 - 4 * q)) as usize & 15];
+        sobol = std::array::from_fn(|lane| sobol[lane] ^ m[lane]);
+    }
+    sobol
+}
 
 fn nibbles() -> &'static [Nibbles] {
     static TABLE: std::sync::OnceLock<Vec<Nibbles>> = std::sync::OnceLock::new();
@@ -214,6 +220,20 @@ mod tests {
                     expected.push(sobol_burley::sample(index, dim, seed) as f64);
                     assert_eq!(s.get(), *expected.last().unwrap(), "dimension {dim}");
                 }
+            }
+        }
+    }
+
+    /// The tables give `sobol_int4_rev`'s point for every top half of a shuffled index (the
+    /// only bits it reads) in every set: every entry of every table is checked.
+    #[test]
+    fn tables_are_sobol_int4_rev() {
+        use sobol_burley::parts::sobol_int4_rev;
+        for set in 0..sobol_burley::NUM_DIMENSION_SETS_4D {
+            for top in 0u32..1 << 16 {
+                let shuffled = top << 16 | 0x1234;
+                let want: [u32; 4] = sobol_int4_rev(shuffled, set).into();
+                assert_eq!(point(shuffled, set), want, "set {set}, {shuffled:#x}");
             }
         }
     }
