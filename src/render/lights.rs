@@ -68,13 +68,18 @@ pub fn cap_integral(theta: f64) -> f64 {
 /// below 0.1, where the series serves and the slope needs only steer Newton: its truncation
 /// there, 2e-10 relative at most, slows nothing).
 fn cap_integral_and_slope(theta: f64, y: f64) -> (f64, f64) {
+    cap_terms(theta, y).0
+}
+
+/// `cap_integral_and_slope`, and the sine and cosine of `theta` where it took them.
+fn cap_terms(theta: f64, y: f64) -> ((f64, f64), Option<(f64, f64)>) {
     if theta < 0.1 {
         let t2 = theta * theta;
         let sin = theta * (1.0 - t2 / 6.0 * (1.0 - t2 / 20.0));
-        (cap_integral(theta) - y, 2.0 * sin * sin)
+        ((cap_integral(theta) - y, 2.0 * sin * sin), None)
     } else {
         let (s, c) = theta.sin_cos();
-        (theta - s * c - y, 2.0 * s * s)
+        ((theta - s * c - y, 2.0 * s * s), Some((s, c)))
     }
 }
 
@@ -183,8 +188,23 @@ pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DV
     let cone = Cone::of(d, radius)?;
     let axis = to / d;
     let y = u.x.clamp(0.0, 1.0) * cone.integral;
-    let theta = solve_cone_theta_at(cone.a, y, cap_integral_and_slope);
-    let (sin_t, cos_t) = theta.sin_cos();
+    // Newton's last evaluation took the sine and cosine of a point within its last step of
+    // the root: turned by that step (below 1e-8 a, so its Taylor terms past the cube are
+    // below 1e-32), they are the root's, without another `sin_cos`.
+    let last = std::cell::Cell::new((0.0, None));
+    let theta = solve_cone_theta_at(cone.a, y, |t, y| {
+        let (terms, sin_cos) = cap_terms(t, y);
+        last.set((t, sin_cos));
+        terms
+    });
+    let (sin_t, cos_t) = match last.get() {
+        (t, Some((s, c))) if (theta - t).abs() <= 1e-6 => {
+            let h = theta - t;
+            let (sh, ch) = (h * (1.0 - h * h / 6.0), 1.0 - h * h / 2.0);
+            (s * ch + c * sh, c * ch - s * sh)
+        }
+        _ => theta.sin_cos(),
+    };
     let local = (sin_t * uniform_s2(u.y, u.z)).extend(cos_t);
     let wo = Frame::new(axis).to_world(local).normalize();
     Some((wo, 1.0 / (2.0 * PI * cone.integral), d))
@@ -383,6 +403,26 @@ mod tests {
                 );
                 let back = cap_integral(theta) / cap_integral(a);
                 assert!((back - u).abs() < 1e-12, "a {a} u {u}: {back}");
+            }
+        }
+    }
+
+    /// A sampled direction makes the solved angle with the axis, its sine and cosine turned
+    /// from Newton's last point or taken anew (cones below and above 0.1 rad, samples near
+    /// the axis and the rim).
+    #[test]
+    fn ball_samples_make_the_solved_angle() {
+        let center = DVec4::new(0.3, -0.2, 0.1, 0.4);
+        for (d, r) in [(10.0, 0.2), (3.0, 0.5), (1.5, 1.0), (1.01, 1.0)] {
+            let x = center - DVec4::new(0.0, 0.0, d, 0.0);
+            let a = cone_half_angle(d, r).expect("outside");
+            for k in 0..50 {
+                let u = DVec3::new((k as f64 + 0.5) / 50.0, 0.37, 0.81);
+                let (wo, _, _) = sample_ball(x, center, r, u).expect("outside");
+                let cos = wo.dot((center - x) / d);
+                let theta = sample_cone_theta(a, u.x);
+                assert!((cos - theta.cos()).abs() < 1e-13, "{d} {r} {u}: {cos}");
+                assert!((wo.length() - 1.0).abs() < 1e-14);
             }
         }
     }
