@@ -189,8 +189,8 @@ pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DV
     let axis = to / d;
     let y = u.x.clamp(0.0, 1.0) * cone.integral;
     // Newton's last evaluation took the sine and cosine of a point within its last step of
-    // the root: turned by that step (below 1e-8 a, so its Taylor terms past the cube are
-    // below 1e-32), they are the root's, without another `sin_cos`.
+    // the root: turned by that step (at most 1e-6 here, so the Taylor terms dropped are
+    // below 1e-25), they are the root's, without another `sin_cos`.
     let last = std::cell::Cell::new((0.0, None));
     let theta = solve_cone_theta_at(cone.a, y, |t, y| {
         let (terms, sin_cos) = cap_terms(t, y);
