@@ -113,6 +113,11 @@ impl Cone {
         };
         (a > 0.0).then_some(Cone { a, integral })
     }
+
+    /// The solid-angle pdf of a direction uniform in it: one over the cap's area.
+    fn pdf(&self) -> f64 {
+        1.0 / (2.0 * PI * self.integral)
+    }
 }
 
 /// The half-angle of the cone a ball of radius `r` fills, seen from distance `d`; `None` when
@@ -124,10 +129,7 @@ pub fn cone_half_angle(d: f64, r: f64) -> Option<f64> {
 /// Solid-angle pdf of [`sample_ball`] from a point at distance `d` from the centre of a ball
 /// of radius `r` (for any direction inside the cone); 0 where no sample can be drawn.
 pub fn ball_pdf(d: f64, r: f64) -> f64 {
-    match Cone::of(d, r) {
-        Some(c) => 1.0 / (2.0 * PI * c.integral),
-        None => 0.0,
-    }
+    Cone::of(d, r).map_or(0.0, |c| c.pdf())
 }
 
 /// The angle from the axis of a direction uniform in the cone of half-angle `a` (in `(0, pi]`),
@@ -148,11 +150,16 @@ pub fn sample_cone_theta(a: f64, u: f64) -> f64 {
 /// of `1e-15 a`, and 2.0 with the second-order guess (a model of this solver, 2,000 `u`); below
 /// about 0.2 rad the tenth-order guess is within the tolerance, and one evaluation confirms it.
 pub fn solve_cone_theta(a: f64, u: f64, f_df: impl Fn(f64, f64) -> (f64, f64)) -> f64 {
-    solve_cone_theta_at(a, u.clamp(0.0, 1.0) * cap_integral(a), f_df)
+    solve_cone_theta_at((a, cap_integral(a)), u, f_df)
 }
 
-/// `solve_cone_theta` for `g(theta) = y`.
-fn solve_cone_theta_at(a: f64, y: f64, f_df: impl Fn(f64, f64) -> (f64, f64)) -> f64 {
+/// `solve_cone_theta` in the cone of half-angle `a` whose `g(a)` is `integral`.
+fn solve_cone_theta_at(
+    (a, integral): (f64, f64),
+    u: f64,
+    f_df: impl Fn(f64, f64) -> (f64, f64),
+) -> f64 {
+    let y = u.clamp(0.0, 1.0) * integral;
     let t = cbrt_guess(1.5 * y);
     let t2 = t * t;
     let series = 43.0 / 67375.0;
@@ -187,12 +194,11 @@ pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DV
     let d = to.length();
     let cone = Cone::of(d, radius)?;
     let axis = to / d;
-    let y = u.x.clamp(0.0, 1.0) * cone.integral;
     // Newton's last evaluation took the sine and cosine of a point within its last step of
     // the root: turned by that step (at most 1e-6 here, so the Taylor terms dropped are
     // below 1e-25), they are the root's, without another `sin_cos`.
     let last = std::cell::Cell::new((0.0, None));
-    let theta = solve_cone_theta_at(cone.a, y, |t, y| {
+    let theta = solve_cone_theta_at((cone.a, cone.integral), u.x, |t, y| {
         let (terms, sin_cos) = cap_terms(t, y);
         last.set((t, sin_cos));
         terms
@@ -207,7 +213,7 @@ pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DV
     };
     let local = (sin_t * uniform_s2(u.y, u.z)).extend(cos_t);
     let wo = Frame::new(axis).to_world(local).normalize();
-    Some((wo, 1.0 / (2.0 * PI * cone.integral), d))
+    Some((wo, cone.pdf(), d))
 }
 
 /// The spherical lights of one frame, chosen in proportion to their power

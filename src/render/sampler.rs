@@ -62,9 +62,9 @@ pub struct Sampler {
     four: [f32; 4],
 }
 
-/// One pixel's Owen-scrambled Sobol sequence (`seed`) at one sample index: `sobol_burley::sample_4d`
-/// taken apart, with what depends on the sample alone (the shuffled index, the seed's part of
-/// the scramble) computed once instead of for every set of four dimensions.
+/// One pixel's Owen-scrambled Sobol sequence (`seed`) at one sample index:
+/// `sobol_burley::sample_4d` taken apart, with what depends on the sample alone (the shuffled
+/// index) computed once instead of for every set of four dimensions.
 #[derive(Clone, Copy, Debug)]
 struct Sobol {
     seed: u32,

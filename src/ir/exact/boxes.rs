@@ -5,6 +5,7 @@
 //! of the ray, the squared distance to the sharp box is a quadratic (`within`). The set is
 //! convex, so leaving it is entering it along the reversed ray from beyond its far side.
 
+use super::dot;
 use crate::math::kernel::box_dist;
 
 /// Where the line `u + t w` is inside the sharp box of half-extents `half`: `(enter, leave)`,
@@ -40,7 +41,8 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     box_dist(u, v)
 }
 
-/// How the ray `u + t w` (`w` a unit vector) meets `box(u) <= r`: with `inside` false, where
+/// How the ray `u + t w` meets `box(u) <= r` (`t` in units of `w`, which a row of `A` that is
+/// zero leaves shorter than a unit vector): with `inside` false, where
 /// it first enters it from outside; with `inside` true, where it leaves it from inside (none:
 /// it never does). Inlined: its arguments passed through memory stalled their loads.
 #[inline(always)]
@@ -50,9 +52,9 @@ pub fn meet(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), inside: bool) 
     // its grown corners at all (a ray starting outside it that heads away, or passes wide).
     // `w` need not be a unit vector (a row of `A` may be zero), and the ray's offset from the
     // centre is taken apart from its start, not as `|u|^2 - b^2`, which cancels far away.
-    let dot = |a: [f64; 4], b: [f64; 4]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3];
-    let (b, rr) = (dot(u, w), dot(grown, grown));
+    let rr = dot(grown, grown);
     if !inside && dot(u, u) > rr {
+        let b = dot(u, w);
         let s = b / dot(w, w);
         let off: [f64; 4] = std::array::from_fn(|i| u[i] - s * w[i]);
         if b > 0.0 || dot(off, off) > rr * (1.0 + 1e-12) {
