@@ -46,7 +46,7 @@ pub struct Work {
     /// Rays that took at least a quarter of the step limit, or ran out: crawling rays
     /// (grazing a surface) that a bigger image, with more such rays, loses to the limit.
     pub strained: u64,
-    /// Graph nodes that pruning read and built for the cells the rays reached first
+    /// The work of building the cells the rays reached first, in graph nodes
     /// (`Cells::built`; 0 on the whole tape): in the probe's result, what the render would
     /// build per probe's worth of its rays (`Building::per_probe`).
     pub built: f64,
@@ -91,11 +91,15 @@ struct Weights {
     built: f64,
 }
 
-/// A graph node that pruning reads or builds for a new cell (`Cells::built`), with the rest
-/// of building the cell (bounds, exact pieces, tapes): 0.3 to 0.65 us, timed as the probe's
-/// march through the cells of a union of 1,024 spheres (0.29 us a node, 240,000 nodes) and of
-/// four generated scenes at scale 1e4 that build cells for nearly every step (0.55 to 0.67
-/// us, 190,000 to 510,000 nodes), where building was nearly all of the march.
+/// A node of a new cell's graph (`Cells::built`, which counts `vm::cells::CELL_NODES` more
+/// for each cell), with its share of the rest of building the cell (bounds, exact pieces,
+/// tapes): fitted (least squares, relative error) to the time spent building cells in 16
+/// renders, a union of 1,024 spheres at three sizes and 256 spheres (20 to 110 ns a node of
+/// the cell and its parent's graph together, 1,500 to 4,500 cells) and 12 generated scenes
+/// (2 to 57,000 cells, 250 to 600 ns), within 0.5 to 1.6 times of each. The parent's nodes,
+/// which pruning reads, took no weight; counting them at 500 ns made building the sphere
+/// union's cells look eight times dearer than it is, and a 1-spp render of it took the
+/// whole tape, three times slower.
 const BUILT: f64 = 500.0;
 
 const CELLS: Weights = Weights {

@@ -117,10 +117,17 @@ pub struct Partial {
     pub rest: Tape,
 }
 
+/// What building a cell costs beside the nodes of its pruned graph, in such nodes. Timed in
+/// every cell built for a union of 1,024 spheres and for generated scenes (16 renders, 2 to
+/// 57,000 cells each), building took about 5 us a cell and 0.5 us a node of the cell's graph,
+/// and nothing measurable per node of its parent's graph that pruning read.
+pub const CELL_NODES: usize = 10;
+
 /// The tree of one frame's cells, and what lies outside its cube.
 pub struct Cells {
-    /// Nodes of the graphs pruning has read and built for the cells so far: the work the
-    /// lazy tree costs, for tests and measurements.
+    /// The work of building the cells so far, in nodes of their graphs (`CELL_NODES` more
+    /// for each cell): what the lazy tree costs, for the probe's model, tests and
+    /// measurements.
     built: AtomicU64,
     root: Cell,
     /// Points outside the cube: the scene without the objects that lie inside it. A step from
@@ -374,7 +381,7 @@ impl Cells {
         c
     }
 
-    /// The nodes pruning has read and built for the cells so far (not the root's).
+    /// The work of building the cells so far (not the root), in nodes (`CELL_NODES`).
     pub fn built(&self) -> u64 {
         self.built.load(Ordering::Relaxed)
     }
@@ -621,8 +628,10 @@ impl Cell {
                 self.len,
                 self.needs,
             );
-            let work = self.graph.graph.len() + kid.graph.graph.len();
-            built.fetch_add(work as u64, Ordering::Relaxed);
+            built.fetch_add(
+                (kid.graph.graph.len() + CELL_NODES) as u64,
+                Ordering::Relaxed,
+            );
             Box::new(kid)
         }))
     }
