@@ -146,6 +146,42 @@ fn frame_shards_merge_into_the_same_bytes() {
     assert_eq!(tree(&d.join("s0")), ["frame_0000.exr"]);
 }
 
+/// A render keeps the denoiser's scales of each finished frame in its film's header, and
+/// finishing takes them from there instead of reading every film once more: the same GIF as
+/// finishing films whose headers lack them (rendered without a denoiser, merged with one),
+/// which reads them all first. The scene is 1e24 times too bright (and exposed down again):
+/// its colours' `f32` squares overflow at the wrong scales (zero scales in the headers make
+/// another GIF), where the filter of a scene of ordinary brightness gives the same bytes at
+/// any scale.
+#[test]
+fn scales_from_the_headers_finish_as_a_pass_over_the_films_does() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let d = dir.path();
+    let scene = "render { size = 20 x 14  frames = 5  spp = 4  exposure = 1e-24 }
+        sky = rgb(0.6e24, 0.7e24, 0.9e24)
+        object ball { shape = hypersphere(1) material = diffuse(albedo: rgb(0.8, 0.3, 0.2)) }
+        object lamp { shape = hypersphere(0.5) |> translate([1, 2, 0, 0])
+          material = light(intensity: 5e24) }";
+    std::fs::write(d.join("scene.4ds"), scene).expect("scene written");
+    ok(render(
+        d,
+        &["-o", "headers.gif", "--films", "fa", "--denoise", "atrous"],
+    ));
+    ok(render(
+        d,
+        &["-o", "none.gif", "--films", "fb", "--denoise", "none"],
+    ));
+    let header = |p: &str| hyperslice::film::file::read_header(&d.join(p)).expect("a film");
+    assert!(header("fa/frame_0002.exr").contains("\"scales\""));
+    assert!(!header("fb/frame_0002.exr").contains("\"scales\""));
+    ok(hyperslice(
+        d,
+        &["merge", "fb", "--denoise", "atrous", "-o", "pass.gif"],
+    ));
+    assert!(same(d, "headers.gif", "pass.gif"));
+    assert!(!same(d, "headers.gif", "none.gif"));
+}
+
 #[test]
 fn sample_shards_merge_within_rounding() {
     let dir = scene_dir();

@@ -24,6 +24,9 @@ pub struct Films {
     pub frames: BTreeMap<u32, Vec<PathBuf>>,
     /// The counts of all the work in them.
     pub stats: Stats,
+    /// The denoiser's scales of the whole animation, where every frame is one film whose
+    /// header holds its own (`FilmMeta::scales`).
+    pub scales: Option<Scales>,
 }
 
 impl Films {
@@ -144,12 +147,19 @@ impl Films {
             .ok_or(Error::NoFilms { dirs: vec![] })?;
         let mut frames: BTreeMap<u32, Vec<(u32, PathBuf)>> = BTreeMap::new();
         let mut stats = Stats::default();
+        let mut scales = Some(Scales::default());
         for (path, m) in list {
             stats += m.stats;
+            scales = scales.zip(m.scales).map(|(a, b)| a.max(b));
             frames
                 .entry(m.frame)
                 .or_default()
                 .push((m.samples[0], path));
+        }
+        // A frame of several films (sample shards) has the scales of their sum, which no
+        // header holds.
+        if frames.values().any(|v| v.len() > 1) {
+            scales = None;
         }
         Ok(Films {
             meta,
@@ -160,6 +170,7 @@ impl Films {
                 })
                 .collect(),
             stats,
+            scales,
         })
     }
 
@@ -227,13 +238,16 @@ pub fn assemble(films: &Films, finish: &Finish, out: &Path, monitor: Monitor) ->
     let film =
         |paths: &[PathBuf]| -> Result<Film> { Ok(Film::from_sums(w, h, &films.sums(paths)?)) };
     let opts = AtrousOptions::default();
-    // Neighbouring frames' guides are compared at common scales: a pass over the films first.
-    let scales = if Denoiser::needs_scales(finish.denoise) {
+    // Neighbouring frames' guides are compared at common scales: from the films' headers, or
+    // a pass over the films first.
+    let scales = if !Denoiser::needs_scales(finish.denoise) {
+        Scales::default()
+    } else if let Some(scales) = films.scales {
+        scales
+    } else {
         (films.frames.par_iter())
             .map(|(_, paths)| film(paths).map(|f| Scales::of(&f, &opts)))
             .try_reduce(Scales::default, |a, b| Ok(a.max(b)))?
-    } else {
-        Scales::default()
     };
     let mut denoiser = Denoiser::new(finish.denoise, films.frames.len(), &opts, scales);
     let mut sink = output::Sink::create(out, &finish.output, films.meta.frames > 1)?;
@@ -275,8 +289,9 @@ pub fn denoise_frames(frames: &mut [Film], denoise: Denoise, threads: Option<usi
 }
 
 /// About how long finishing `frames` frames of a render with settings `r` into `out` will
-/// take (denoising, encoding, and reading the films twice), so that a time budget can keep
-/// it back: measured on three small frames of noise, scaled by the pixels, with a margin.
+/// take (denoising, encoding, and reading the films, twice where their headers lack the
+/// denoiser's scales), so that a time budget can keep it back: measured on three small frames
+/// of noise, scaled by the pixels, with a margin.
 pub fn finishing_time(
     r: &crate::scene::RenderSettings,
     frames: usize,

@@ -7,7 +7,9 @@
 
 use super::plan::Part;
 use super::{FORMAT, FilmMeta, Fingerprint};
+use crate::denoise::{AtrousOptions, Denoiser, Scales};
 use crate::error::{Error, Result};
+use crate::film::Film;
 use crate::film::file::{self, FilmFile};
 use crate::render::driver::{Options, Progress, Store, Unit};
 use crate::scene::Scene;
@@ -77,6 +79,7 @@ impl FilmDir {
             denoise: r.denoise,
             exposure: r.exposure,
             fps: r.fps,
+            scales: None,
         };
         Ok(FilmDir {
             dir: dir.to_path_buf(),
@@ -236,15 +239,22 @@ impl Store for FilmDir {
     }
 
     fn save(&self, p: &Progress) -> Result<()> {
+        let (w, h) = (self.template.width as usize, self.template.height as usize);
+        // The scales finishing needs, of a frame's finished film of all its samples: read
+        // back, its sums are these, bit for bit.
+        let whole_frame = p.complete && p.unit.samples == (0..self.spp);
+        let scales = (whole_frame && Denoiser::needs_scales(self.template.denoise))
+            .then(|| Scales::of(&Film::from_sums(w, h, &p.sums), &AtrousOptions::default()))
+            .filter(|s| s.is_finite());
         let meta = FilmMeta {
             frame: p.unit.frame,
             samples: [p.unit.samples.start, p.unit.samples.end],
             complete: p.complete,
             stats: p.stats,
+            scales,
             ..self.template.clone()
         };
         let header = serde_json::to_string(&meta).expect("film meta serialises");
-        let (w, h) = (meta.width as usize, meta.height as usize);
         let bytes = file::encode(&header, w, h, &p.sums)?;
         std::fs::create_dir_all(&self.dir).map_err(|source| Error::CreateDirectory {
             path: self.dir.clone(),

@@ -114,7 +114,7 @@ fn is_missed(n: DVec4) -> bool {
 /// pass need not smooth. Neighbouring frames' guides are compared, so every frame of an
 /// animation is stored at the same scales: a streaming filter learns them in a pass over the
 /// frames before filtering.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Scales {
     footprint: f64,
     variance: f64,
@@ -135,6 +135,11 @@ impl Scales {
             footprint: p.fx.iter().chain(&p.fy).copied().fold(0.0, f64::max),
             variance: p.var.iter().copied().fold(0.0, f64::max),
         }
+    }
+
+    /// Whether both are finite numbers (what a film's header can hold: JSON has no infinity).
+    pub fn is_finite(self) -> bool {
+        self.footprint.is_finite() && self.variance.is_finite()
     }
 
     /// The scales of two sets of frames together.
