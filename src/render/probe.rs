@@ -332,7 +332,7 @@ impl Probe {
     }
 
     /// Relaxed steps lose where they overshoot more than they gain (a slab's planes met head
-    /// on): where the whole tape wins, plain steps are measured too.
+    /// on): where the whole tape wins, plain steps are measured too, as far as they can win.
     fn plain_steps(&mut self, marcher: &mut Marcher, whole: Field, all: &[Ray], limits: Limits) {
         if self.choice() == Choice::Whole {
             let plain = Field {
@@ -340,15 +340,21 @@ impl Probe {
                 ..whole
             };
             let mut work = Work::default();
-            march(marcher, plain, all, limits, &mut vec![], &mut work);
+            in_shares(
+                marcher,
+                plain,
+                all,
+                limits,
+                &mut work,
+                self.whole.cost(&WHOLE),
+            );
             self.plain = Some(work);
         }
     }
 
-    /// The rays `all` the cells marched, on the whole tape: an eighth of them at a time, and
-    /// no more once that costs more than the cells' march (the cells pay whatever the rest
-    /// would cost, and a whole-tape march of a dense union is most of what the probe would
-    /// spend).
+    /// The rays `all` the cells marched, on the whole tape, as far as that can win (the cells
+    /// pay whatever the rest would cost, and a whole-tape march of a dense union is most of
+    /// what the probe would spend).
     fn whole_after_cells(
         &mut self,
         marcher: &mut Marcher,
@@ -357,14 +363,7 @@ impl Probe {
         limits: Limits,
     ) {
         let cells_cost = self.cells.map_or(0.0, |c| c.cost(&CELLS));
-        let mut hits = vec![];
-        for k in 0..SHARES {
-            let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
-            march(marcher, whole, &share, limits, &mut hits, &mut self.whole);
-            if self.whole.cost(&WHOLE) > cells_cost {
-                break;
-            }
-        }
+        in_shares(marcher, whole, all, limits, &mut self.whole, cells_cost);
     }
 
     /// Whether the frame should march through its cells: they cost less than marching the whole
@@ -487,6 +486,28 @@ fn whole_alone(
     match work.crawls() {
         false => Ok((work, all)),
         true => Err(work),
+    }
+}
+
+/// March `all` on the whole tape of `field` an eighth of them at a time (each eighth spread
+/// over the image), adding to `work`, and no more once that costs more than `beyond`: a
+/// march that costs more than its rival's has lost whatever the rest would cost (costs only
+/// grow), so the choice is the same as after marching all of them.
+fn in_shares(
+    marcher: &mut Marcher,
+    field: Field,
+    all: &[Ray],
+    limits: Limits,
+    work: &mut Work,
+    beyond: f64,
+) {
+    let mut hits = vec![];
+    for k in 0..SHARES {
+        let share: Vec<Ray> = all.iter().skip(k).step_by(SHARES).copied().collect();
+        march(marcher, field, &share, limits, &mut hits, work);
+        if work.cost(&WHOLE) > beyond {
+            break;
+        }
     }
 }
 
