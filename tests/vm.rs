@@ -1553,6 +1553,9 @@ fn pruned_boxes_agree_with_the_whole_box() {
             let edge = 10f64.powf(rng.random_range(-2.0..0.0));
             let region = [I::new(-edge / 2.0, edge / 2.0); 4];
             let cell = prune(&raw.graph, &[root], region, centre, f64::INFINITY);
+            // What pruning builds, its roots need all of (`Pruned::compact`): pruning it
+            // again marks every node live without looking.
+            assert!(cell.compact && cell.graph.live(&cell.roots).iter().all(|&l| l));
             let boxes = (0..cell.graph.len())
                 .filter(|&k| matches!(cell.graph.get(ir::Id(k as u32)), Node::BoxDist(..)))
                 .count();

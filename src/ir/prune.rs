@@ -23,6 +23,10 @@ pub struct Pruned {
     pub graph: Graph,
     pub roots: Vec<Id>,
     pub bounds: Vec<I>,
+    /// Every node is one the roots need (as `prune` builds it): pruning this graph again
+    /// need not find which are (a pass over it that was an eighth of building a dense
+    /// union's cells).
+    pub compact: bool,
 }
 
 /// What the bounds over the box decide for one node of the graph being pruned.
@@ -47,7 +51,29 @@ enum Plan {
 /// only those are built, so a box where most of a large union is cut costs little more than
 /// one interval pass over `g`.
 pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4], reach: f64) -> Pruned {
-    let live = g.live(roots);
+    prune_live(g, roots, g.live(roots), region, shift, reach)
+}
+
+impl Pruned {
+    /// `prune` of this graph's roots.
+    pub fn prune(&self, region: [I; 4], shift: [f64; 4], reach: f64) -> Pruned {
+        let live = match self.compact {
+            true => vec![true; self.graph.len()],
+            false => self.graph.live(&self.roots),
+        };
+        prune_live(&self.graph, &self.roots, live, region, shift, reach)
+    }
+}
+
+/// `prune`, with the nodes the roots need marked in `live`.
+fn prune_live(
+    g: &Graph,
+    roots: &[Id],
+    live: Vec<bool>,
+    region: [I; 4],
+    shift: [f64; 4],
+    reach: f64,
+) -> Pruned {
     let plan = plan(g, roots, &live, region, shift, reach);
     // Each kept node adds about one (a shifted variable, two).
     let kept = plan
@@ -130,6 +156,7 @@ pub fn prune(g: &Graph, roots: &[Id], region: [I; 4], shift: [f64; 4], reach: f6
         graph,
         roots: kept.iter().map(|r| m[r.0 as usize]).collect(),
         bounds,
+        compact: true,
     }
 }
 

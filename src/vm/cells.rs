@@ -23,7 +23,7 @@ use crate::ir::exact::{Piece, partition, pieces};
 use crate::ir::interval::I;
 use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
-use crate::ir::prune::{Pruned, prune};
+use crate::ir::prune::Pruned;
 use crate::ir::{Graph, Id, Node, Un};
 use glam::DVec4;
 use std::sync::OnceLock;
@@ -222,6 +222,7 @@ fn outside(
         graph: og,
         roots: roots.flat(),
         bounds: vec![],
+        compact: false,
     };
     let everywhere = Place {
         lo: DVec4::splat(f64::NEG_INFINITY),
@@ -332,6 +333,7 @@ impl Cells {
             graph: g.clone(),
             roots: tapes.flat(),
             bounds: vec![],
+            compact: false,
         };
         let centre = lo + DVec4::splat(size / 2.0);
         let cube = Place {
@@ -427,6 +429,7 @@ fn partial(pr: &Pruned, place: Place, needs: Needs) -> Option<Partial> {
         graph,
         roots: vec![d, n],
         bounds: vec![],
+        compact: false,
     };
     let (precise, roots) = place.precise(&rest, needs.epsilon);
     let tape = Tape::compile("rest", precise.as_ref().unwrap_or(&rest.graph), &roots);
@@ -452,7 +455,7 @@ impl Cell {
         } else {
             f64::INFINITY
         };
-        let pr = prune(&parent.graph, &parent.roots, region, shift, reach);
+        let pr = parent.prune(region, shift, reach);
         let (precise, roots) = place.precise(&pr, needs.epsilon);
         let tapes = precise.as_ref().unwrap_or(&pr.graph);
         let scene = Tape::compile("scene", tapes, &roots[..2]);
