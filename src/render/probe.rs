@@ -59,11 +59,6 @@ impl Work {
         self.strained > self.rays / 256
     }
 
-    /// The modelled time per ray.
-    fn per_ray(&self, w: &Weights) -> f64 {
-        self.cost(w) / self.rays.max(1) as f64
-    }
-
     /// Marching time in nanoseconds, modelled from the counts with one marcher's weights.
     fn cost(&self, w: &Weights) -> f64 {
         w.ray * self.rays as f64
@@ -234,11 +229,6 @@ impl Probe {
     /// camera rays on the whole tape, checked after every `CHUNK` rays; the whole tape is
     /// then marched alone. Not where the first stage's rays crawled: the cells may be what
     /// keeps those rays within the step limit (`Choice::CellsForSteps`), whatever they cost.
-    /// Cells that cost less than a `CLEAR`th of the whole tape per camera ray, building
-    /// included, after a quarter of the camera rays from the second on, are kept at once: the
-    /// rest of the probe would build cells the render then shares, on one thread (a third of
-    /// the probe of a union of 1,024 spheres), and not change the choice (it did not in 240
-    /// renders of 120 generated scenes, 15 of which took this path).
     pub fn through(cells: Field, sight: Sight, first: Work) -> Probe {
         let whole = Field {
             cells: None,
@@ -264,31 +254,22 @@ impl Probe {
         };
         let per_ray = first.cost(&WHOLE) / first.rays.max(1) as f64;
         let crawled = first.crawls();
-        let verdict = |work: &Work, part_done: bool| {
+        let give_up = |work: &Work, part_done: bool| {
             if part_done {
                 after.borrow_mut().push(work.built);
             }
             if crawled {
-                return Verdict::Go;
+                return false;
             }
             // Checked on every piece: a ray of a far scene may build thousands of nodes.
             if work.built * CELLS.built > BUDGET * per_ray * samples {
-                return Verdict::GiveUp;
+                return true;
             }
             // The share `s` is known once the second quarter is marched.
-            if !part_done || after.borrow().len() < 2 {
-                return Verdict::Go;
-            }
-            let marched = work.rays.min(camera.len() as u64);
-            let built = building(marched).per_probe(work.built);
-            let whole = per_ray * work.rays as f64;
-            let cells = Work { built, ..*work }.cost(&CELLS);
-            if built * CELLS.built > WORSE * whole {
-                Verdict::GiveUp
-            } else if work.rays < camera.len() as u64 && CLEAR * cells < whole {
-                Verdict::Enough
-            } else {
-                Verdict::Go
+            part_done && after.borrow().len() >= 2 && {
+                let marched = work.rays.min(camera.len() as u64);
+                let built = building(marched).per_probe(work.built) * CELLS.built;
+                built > WORSE * per_ray * work.rays as f64
             }
         };
         let pace = Pace {
@@ -296,7 +277,7 @@ impl Probe {
             piece: CHUNK,
             grow: false,
         };
-        let marched = generations(&mut marcher, cells, camera.clone(), sight, (pace, verdict));
+        let marched = generations(&mut marcher, cells, camera.clone(), sight, (pace, give_up));
         let (mut cells, all) = match marched {
             Ok(marched) => marched,
             Err(abandoned) => {
@@ -309,17 +290,7 @@ impl Probe {
                 };
             }
         };
-        let marched = cells.rays.min(camera.len() as u64);
-        cells.built = building(marched).per_probe(cells.built);
-        if marched < camera.len() as u64 {
-            // The cells won outright on the first quarters of the camera rays.
-            return Probe {
-                cells: Some(cells),
-                whole: first,
-                plain: None,
-                abandoned: None,
-            };
-        }
+        cells.built = building(camera.len() as u64).per_probe(cells.built);
         let mut probe = Probe {
             cells: Some(cells),
             whole: Work::default(),
@@ -381,7 +352,7 @@ impl Probe {
             // Many more crawling rays than the cells have: the whole tape would lose a visible band of
             // them (a horizon over a floor). A few in a lattice's channels crawl either way.
             Choice::CellsForSteps
-        } else if cells.per_ray(&CELLS) <= self.whole.per_ray(&WHOLE) {
+        } else if cells.cost(&CELLS) <= self.whole.cost(&WHOLE) {
             Choice::CellsForSpeed
         } else {
             self.steps()
@@ -473,16 +444,13 @@ fn whole_alone(
     whole: Field,
     sight: Sight,
 ) -> Result<(Work, Vec<Ray>), Work> {
-    let verdict = |work: &Work, _| match work.cost(&WHOLE) > work.rays as f64 * CELLS.ray {
-        true => Verdict::GiveUp,
-        false => Verdict::Go,
-    };
+    let give_up = |work: &Work, _| work.cost(&WHOLE) > work.rays as f64 * CELLS.ray;
     let pace = Pace {
         part: usize::MAX,
         piece: CHUNK,
         grow: true,
     };
-    let (work, all) = generations(marcher, whole, sight.rays(), sight, (pace, verdict))?;
+    let (work, all) = generations(marcher, whole, sight.rays(), sight, (pace, give_up))?;
     match work.crawls() {
         false => Ok((work, all)),
         true => Err(work),
@@ -535,47 +503,30 @@ struct Pace {
 }
 
 /// A march of the probe that takes its rays all at once and never gives up.
-const NEVER: (Pace, fn(&Work, bool) -> Verdict) = (
+const NEVER: (Pace, fn(&Work, bool) -> bool) = (
     Pace {
         part: usize::MAX,
         piece: usize::MAX,
         grow: false,
     },
-    |_, _| Verdict::Go,
+    |_, _| false,
 );
-
-/// What a march of the probe does after a piece of its rays.
-#[derive(Clone, Copy, PartialEq)]
-enum Verdict {
-    Go,
-    /// The march costs too much: it ends with what it cost so far.
-    GiveUp,
-    /// The march has shown what it had to: it ends with what it cost so far and the rays it
-    /// marched.
-    Enough,
-}
-
-/// Cells whose march of the first quarters of the camera rays (with the building the render
-/// would do for them) costs less than the whole tape's divided by this are kept without
-/// marching the rest of the probe (`Probe::through`). The union of 1,024 spheres models 0.30.
-const CLEAR: f64 = 3.0;
 
 /// The probe's rays on `field`: the camera rays `rays`, then `BOUNCES` generations of mirror
 /// bounces from their hits, marched at `pace`; what that cost and every ray marched, or what
-/// it cost so far as soon as `verdict` gives it up (told after each piece whether it ended
-/// a part), or what it cost and the rays marched so far as soon as it has enough.
+/// it cost so far as soon as `give_up` says so of it (told after each piece whether it ended
+/// a part).
 fn generations(
     marcher: &mut Marcher,
     field: Field,
     mut rays: Vec<Ray>,
     sight: Sight,
-    (pace, verdict): (Pace, impl Fn(&Work, bool) -> Verdict),
+    (pace, give_up): (Pace, impl Fn(&Work, bool) -> bool),
 ) -> Result<(Work, Vec<Ray>), Work> {
     let (mut work, mut hits, mut found, mut all) = (Work::default(), vec![], vec![], vec![]);
     let (limits, mut grad) = (sight.limits(), Regs { r: vec![] });
     for generation in 0..=BOUNCES {
         found.clear();
-        let mut done = 0;
         for part in rays.chunks(pace.part) {
             let (mut from, mut size) = (0, pace.piece);
             while from < part.len() {
@@ -588,14 +539,8 @@ fn generations(
                     &mut hits,
                     &mut work,
                 );
-                done += to - from;
-                match verdict(&work, to == part.len()) {
-                    Verdict::Go => {}
-                    Verdict::GiveUp => return Err(work),
-                    Verdict::Enough => {
-                        all.extend_from_slice(&rays[..done]);
-                        return Ok((work, all));
-                    }
+                if give_up(&work, to == part.len()) {
+                    return Err(work);
                 }
                 found.extend_from_slice(&hits);
                 from = to;
