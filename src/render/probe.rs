@@ -94,9 +94,9 @@ struct Weights {
 /// A node of a new cell's graph (`Cells::built`, which counts `vm::cells::CELL_NODES` more
 /// for each cell), with its share of the rest of building the cell (bounds, exact pieces,
 /// tapes): fitted (least squares, relative error) to the time spent building cells in 16
-/// renders, a union of 1,024 spheres at three sizes and 256 spheres (20 to 110 ns a node of
+/// renders, three of a union of 1,024 spheres and one of 256 (20 to 110 ns a node of
 /// the cell and its parent's graph together, 1,500 to 4,500 cells) and 12 generated scenes
-/// (2 to 57,000 cells, 250 to 600 ns), within 0.5 to 1.6 times of each. The parent's nodes,
+/// (2 to 57,000 cells, 250 to 600 ns), within 0.4 to 1.6 times of each. The parent's nodes,
 /// which pruning reads, took no weight; counting them at 500 ns made building the sphere
 /// union's cells look eight times dearer than it is, and a 1-spp render of it took the
 /// whole tape, three times slower.
