@@ -173,16 +173,25 @@ fn solve_cone_theta_at(
 }
 
 /// The cube root of `x >= 0` to about 1e-12 relative, for Newton's first guess: the exponent
-/// divided by three in the bits (Kahan's constant), then three Newton steps (1e-6 after two,
-/// which cost the cone's solve a second evaluation). `f64::cbrt` was a twentieth of the
-/// room's render.
+/// divided by three in the bits (Kahan's constant, within 3.2%), then two steps of Halley's
+/// iteration, `y (r + 2) / (2 r + 1)` with `r = y^3 / x` (cubic: 1e-14 after two; three
+/// Newton steps took six divisions in a row, a quarter of the glass box's light samples).
+/// `r` is taken as `(y / x) y^2` through `1 / x`, whose factors neither overflow nor
+/// underflow anywhere in the normal range (subnormal `x` is scaled into it). `f64::cbrt` was
+/// a twentieth of the room's render.
 fn cbrt_guess(x: f64) -> f64 {
     if !(x > 0.0 && x.is_finite()) {
         return x.max(0.0);
     }
+    if x < f64::MIN_POSITIVE {
+        // Subnormal, where `1 / x` overflows: scaled by 2^54 exactly, and the root by 2^18.
+        return cbrt_guess(x * 2f64.powi(54)) / 2f64.powi(18);
+    }
+    let inv = 1.0 / x;
     let mut y = f64::from_bits(x.to_bits() / 3 + 0x2a9f_7893_782d_a1ce);
-    for _ in 0..3 {
-        y = (2.0 * y + x / (y * y)) / 3.0;
+    for _ in 0..2 {
+        let r = (y * inv) * (y * y);
+        y *= (r + 2.0) / (2.0 * r + 1.0);
     }
     y
 }
@@ -372,7 +381,8 @@ mod tests {
     #[test]
     fn cube_root_guess_is_close() {
         assert_eq!(cbrt_guess(0.0), 0.0);
-        let mut x = f64::MIN_POSITIVE;
+        // Subnormals too, from the fourth (times 1.37 rounds up there; at the first it stays).
+        let mut x = f64::from_bits(4);
         while x < f64::MAX / 1.37 {
             let (got, want) = (cbrt_guess(x), x.cbrt());
             assert!(
