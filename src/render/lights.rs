@@ -375,9 +375,8 @@ impl Lights {
 mod tests {
     use super::*;
 
-    /// The guess is the cube root to within 2e-12, from the smallest normal numbers to the
-    /// largest, and 0 at 0 (subnormal inputs, cones below about 1e-103 rad, are clamped to
-    /// the cone by the solve).
+    /// The guess is the cube root to within 2e-12, from the subnormal numbers to the largest,
+    /// and 0 at 0.
     #[test]
     fn cube_root_guess_is_close() {
         assert_eq!(cbrt_guess(0.0), 0.0);

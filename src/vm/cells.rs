@@ -117,10 +117,9 @@ pub struct Partial {
     pub rest: Tape,
 }
 
-/// What building a cell costs beside the nodes of its pruned graph, in such nodes. Timed in
-/// every cell built for a union of 1,024 spheres and for generated scenes (16 renders, 2 to
-/// 57,000 cells each), building took about 5 us a cell and 0.5 us a node of the cell's graph,
-/// and nothing measurable per node of its parent's graph that pruning read.
+/// What building a cell costs beside the nodes of its pruned graph, in such nodes: about 5
+/// us a cell against 0.5 us a node, fitted with the probe's weight of a node
+/// (`render::probe`'s `BUILT`, which says how).
 pub const CELL_NODES: usize = 10;
 
 /// The tree of one frame's cells, and what lies outside its cube.
