@@ -106,8 +106,11 @@ pub struct Tile {
 const MAX_NESTING: usize = 4;
 /// Null-surface crossings (fog and air boundaries) a path may make; they are not bounces.
 const MAX_CROSSINGS: u32 = 256;
-/// Paths in flight per batch.
-const BATCH: usize = 4096;
+/// Paths in flight per batch: enough to fill the tapes' lanes cell by cell, few enough that
+/// their state (some 500 bytes a path, 200 more in the marcher) stays in the core's caches.
+/// Against 4,096, this took 6% off the room's render and 11% off the glass box's, and 4-16%
+/// off every default render of the marcher corpus.
+const BATCH: usize = 1024;
 
 #[derive(Clone, Copy, Debug)]
 /// The media a path is inside, innermost last (at most a few deep): which medium it travels
