@@ -18,7 +18,7 @@
 //! S^2 orthogonal to the axis. Every direction of the cone meets the ball, and only those do, so
 //! the pdf of a direction that hit the ball (found by BSDF sampling) is the same constant.
 
-use super::sampling::{Frame, safeguarded_newton, uniform_s2};
+use super::sampling::{Frame, cube_root, safeguarded_newton, uniform_s2};
 use glam::{DVec3, DVec4};
 use std::f64::consts::PI;
 
@@ -160,7 +160,7 @@ fn solve_cone_theta_at(
     f_df: impl Fn(f64, f64) -> (f64, f64),
 ) -> f64 {
     let y = u.clamp(0.0, 1.0) * integral;
-    let t = cbrt_guess(1.5 * y);
+    let t = cube_root(1.5 * y);
     let t2 = t * t;
     let series = 43.0 / 67375.0;
     let series = 1.0 + t2 * (1.0 / 15.0 + t2 * (2.0 / 175.0 + t2 * (4.0 / 1575.0 + t2 * series)));
@@ -170,30 +170,6 @@ fn solve_cone_theta_at(
         (0.0, a),
         1e-8 * a,
     )
-}
-
-/// The cube root of `x >= 0` to about 1e-12 relative, for Newton's first guess: the exponent
-/// divided by three in the bits (Kahan's constant, within 3.2%), then two steps of Halley's
-/// iteration, `y (r + 2) / (2 r + 1)` with `r = y^3 / x` (cubic: 1e-14 after two; three
-/// Newton steps took six divisions in a row, a quarter of the glass box's light samples).
-/// `r` is taken as `(y / x) y^2` through `1 / x`, whose factors neither overflow nor
-/// underflow anywhere in the normal range (subnormal `x` is scaled into it). `f64::cbrt` was
-/// a twentieth of the room's render.
-fn cbrt_guess(x: f64) -> f64 {
-    if !(x > 0.0 && x.is_finite()) {
-        return x.max(0.0);
-    }
-    if x < f64::MIN_POSITIVE {
-        // Subnormal, where `1 / x` overflows: scaled by 2^54 exactly, and the root by 2^18.
-        return cbrt_guess(x * 2f64.powi(54)) / 2f64.powi(18);
-    }
-    let inv = 1.0 / x;
-    let mut y = f64::from_bits(x.to_bits() / 3 + 0x2a9f_7893_782d_a1ce);
-    for _ in 0..2 {
-        let r = (y * inv) * (y * y);
-        y *= (r + 2.0) / (2.0 * r + 1.0);
-    }
-    y
 }
 
 /// A direction uniform in the solid angle of the ball (`center`, `radius`) seen from `x`, and
@@ -374,23 +350,6 @@ impl Lights {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The guess is the cube root to within 2e-12, from the subnormal numbers to the largest,
-    /// and 0 at 0.
-    #[test]
-    fn cube_root_guess_is_close() {
-        assert_eq!(cbrt_guess(0.0), 0.0);
-        // Subnormals too, from the fourth (times 1.37 rounds up there; at the first it stays).
-        let mut x = f64::from_bits(4);
-        while x < f64::MAX / 1.37 {
-            let (got, want) = (cbrt_guess(x), x.cbrt());
-            assert!(
-                (got - want).abs() <= 2e-12 * want,
-                "{x}: {got} against {want}"
-            );
-            x *= 1.37;
-        }
-    }
 
     /// Below 0.2 rad the series guess is the root to within the tolerance: one evaluation;
     /// at 0.3 rad, at most two.
