@@ -16,7 +16,9 @@ pub mod prune;
 pub use crate::math::{Bin, Un};
 pub use lower::{MaterialIr, ObjectIr, SceneIr, lower};
 
-use rustc_hash::FxHashMap;
+use hashbrown::HashTable;
+use rustc_hash::FxBuildHasher;
+use std::hash::BuildHasher;
 
 /// A node of the graph; children always have smaller ids than their parents.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -182,7 +184,14 @@ impl IntoIterator for Operands {
 #[derive(Clone, Debug, Default)]
 pub struct Graph {
     nodes: Vec<Node>,
-    index: FxHashMap<Node, Id>,
+    /// The ids of the nodes, found by their hash and compared with the arena: a map keyed by
+    /// the nodes held a copy of each (about 100 bytes; 4 here), and interning, a quarter of
+    /// building a dense union's cells, was mostly moving them.
+    index: HashTable<Id>,
+}
+
+fn hash(node: &Node) -> u64 {
+    FxBuildHasher.hash_one(node)
 }
 
 impl Graph {
@@ -195,7 +204,7 @@ impl Graph {
     pub fn with_capacity(n: usize) -> Graph {
         Graph {
             nodes: Vec::with_capacity(n),
-            index: FxHashMap::with_capacity_and_hasher(n, Default::default()),
+            index: HashTable::with_capacity(n),
         }
     }
 
@@ -206,12 +215,14 @@ impl Graph {
             Node::Bin(op, a, b) if op.commutes() && b < a => Node::Bin(op, b, a),
             n => n,
         };
-        if let Some(&id) = self.index.get(&node) {
+        let Graph { nodes, index } = self;
+        let h = hash(&node);
+        if let Some(&id) = index.find(h, |id| nodes[id.0 as usize] == node) {
             return id;
         }
-        let id = Id(self.nodes.len() as u32);
-        self.nodes.push(node);
-        self.index.insert(node, id);
+        let id = Id(nodes.len() as u32);
+        nodes.push(node);
+        index.insert_unique(h, id, |id| hash(&nodes[id.0 as usize]));
         id
     }
 
@@ -265,7 +276,7 @@ impl Graph {
         let live = self.live(roots);
         let mut g = Graph {
             nodes: Vec::with_capacity(live.iter().filter(|l| **l).count()),
-            index: FxHashMap::default(),
+            index: HashTable::new(),
         };
         let mut map = vec![Id(u32::MAX); self.len()];
         for i in (0..self.len()).filter(|i| live[*i]) {
