@@ -41,6 +41,20 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     box_dist(u, v)
 }
 
+/// The sign of `value(u, half, r)` (1 or -1; 1 at 0), without its square root: outside
+/// the sharp box, `|max(q, 0)|` against `r` by their squares. Where the two round apart
+/// (`value` within an ulp or so of 0), either sign is right.
+pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
+    let q: [f64; 4] = std::array::from_fn(|i| u[i].abs() - half[i]);
+    let top = q[0].max(q[1]).max(q[2].max(q[3]));
+    let outside = if top > 0.0 {
+        r <= 0.0 || q.map(|x| x.max(0.0)).iter().map(|x| x * x).sum::<f64>() >= r * r
+    } else {
+        top - r >= 0.0
+    };
+    if outside { 1.0 } else { -1.0 }
+}
+
 /// How the ray `u + t w` meets `box(u) <= r` (`t` in units of `w`, which a row of `A` that is
 /// zero leaves shorter than a unit vector): with `inside` false, where
 /// it first enters it from outside; with `inside` true, where it leaves it from inside (none:
@@ -134,4 +148,42 @@ fn within(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), limit: f64) -> O
         from = to;
     }
     None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// `sign` is the sign of `value`, but where `value` is within its rounding of 0,
+        /// inside the box and out, sharp (`r <= 0`: shrunk) and rounded.
+        #[test]
+        fn sign_is_the_values(
+            u in prop::array::uniform4(-4.0..4.0f64),
+            half in prop::array::uniform4(0.0..3.0f64),
+            r in -0.5..1.5f64,
+        ) {
+            let v = value(u, half, r);
+            let scale = u.iter().chain(&half).fold(r.abs(), |m, x| m.max(x.abs()));
+            if v.abs() > 1e-14 * scale {
+                prop_assert_eq!(sign(u, half, r), v.signum(), "value {}", v);
+            }
+        }
+    }
+
+    /// On the box's surface and in its middle, where the two parts of `sign` meet.
+    #[test]
+    fn sign_at_the_edges() {
+        let half = [1.0, 2.0, 0.5, 1.0];
+        assert_eq!(sign([0.0; 4], half, 0.0), -1.0);
+        assert_eq!(sign([1.0, 0.0, 0.0, 0.0], half, 0.0), 1.0);
+        assert_eq!(sign([1.5, 0.0, 0.0, 0.0], half, 0.5), 1.0);
+        assert_eq!(sign([1.4, 0.0, 0.0, 0.0], half, 0.5), -1.0);
+        assert_eq!(sign([0.9, 0.0, 0.0, 0.0], half, -0.1), 1.0);
+        assert_eq!(sign([0.8, 0.0, 0.0, 0.0], half, -0.1), -1.0);
+        // Beyond a corner, by the length of the outside part.
+        assert_eq!(sign([1.3, 2.4, 0.0, 0.0], half, 0.49), 1.0);
+        assert_eq!(sign([1.3, 2.4, 0.0, 0.0], half, 0.51), -1.0);
+    }
 }

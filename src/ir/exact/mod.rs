@@ -168,7 +168,9 @@ impl Form {
                 let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
                 let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
                 let v = boxes::value(u, *half, *r);
-                let (s, k) = side(sign * v);
+                // The side from the sign alone, which needs no square root: the meeting
+                // then need not wait for one (`v` is only the value's).
+                let (s, k) = side(sign * boxes::sign(u, *half, *r));
                 let sign = s * sign;
                 let value = sign * v - k;
                 let first = match value > 0.0 {
