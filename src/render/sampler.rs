@@ -8,11 +8,12 @@
 //! together: the first two dimensions are the pixel jitter, and path segment `b` (after `b`
 //! scattering events) starts at dimension `4 + SEGMENT_DIMENSIONS * b`, the start of a set,
 //! so the same dimension usually serves the same decision in every sample and a scattering
-//! direction's three numbers come from one set. A segment that uses more (several null-boundary crossings) moves on to the
-//! next unused dimension; a dimension is never used twice in one sample. Every point of an
-//! Owen-scrambled sequence is uniform on the unit cube, so the estimate stays unbiased
-//! whichever decision a dimension ends up serving. Past the sequence's 256 dimensions, and for
-//! sample indices past its 2^16 points, the PCG stream takes over.
+//! direction's three numbers come from one set. A segment that uses more (several
+//! null-boundary crossings) moves on to the next unused dimension; a dimension is never used
+//! twice in one sample. Every point of an Owen-scrambled sequence is uniform on the unit cube,
+//! so the estimate stays unbiased whichever decision a dimension ends up serving. Past the
+//! sequence's 256 dimensions, and for sample indices past its 2^16 points, the PCG stream
+//! takes over.
 
 use glam::DVec3;
 use rand::{Rng, SeedableRng};

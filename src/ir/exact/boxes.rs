@@ -41,9 +41,9 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     box_dist(u, v)
 }
 
-/// The sign of `value(u, half, r)` (1 or -1; 1 at 0), without its square root: outside
-/// the sharp box, `|max(q, 0)|` against `r` by their squares. Where the two round apart
-/// (`value` within an ulp or so of 0), either sign is right.
+/// The sign of `value(u, half, r)` (1 or -1), without its square root: outside the sharp
+/// box, `|max(q, 0)|` against `r` by their squares. Where the two round apart (`value` within
+/// its rounding of 0, often exactly 0), either sign is right: the point is on the surface.
 pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     let q: [f64; 4] = std::array::from_fn(|i| u[i].abs() - half[i]);
     let top = q[0].max(q[1]).max(q[2].max(q[3]));
