@@ -27,7 +27,7 @@ const SEGMENT_DIMENSIONS: u32 = 12;
 /// straddled two sets, and the examples' error at 16 spp was 3% to 21% higher (RMSE against
 /// a 1,024 to 4,096 spp reference; see `docs/performance.md`).
 const CAMERA_DIMENSIONS: u32 = 4;
-const _: () = assert!(CAMERA_DIMENSIONS % 4 == 0 && SEGMENT_DIMENSIONS % 4 == 0);
+const _: () = assert!(CAMERA_DIMENSIONS.is_multiple_of(4) && SEGMENT_DIMENSIONS.is_multiple_of(4));
 
 /// Which sequence drives the samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
