@@ -624,7 +624,7 @@ impl Nee<'_> {
             return None;
         }
         let light = lights.of_object(object)?;
-        let ratio = lights.pdf(light, path.mis_from) / path.mis_pdf;
+        let ratio = lights.pdf(light, path.mis_from, path.d) / path.mis_pdf;
         Some(1.0 / (1.0 + ratio * ratio))
     }
 }
