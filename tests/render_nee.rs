@@ -231,11 +231,11 @@ fn ball_pdf_integrates_to_one_over_the_cone() {
 fn ball_samples_stay_in_the_cone() {
     let x = DVec4::new(0.2, 0.1, -0.3, 0.05);
     let axis = DVec4::new(-0.3, 0.6, 0.2, 0.7).normalize();
-    // Below about 1e-102 rad the pdf would overflow: no sample, and BSDF samples take it all.
+    // Below about 1e-54 rad the pdf would overflow: no sample, and BSDF samples take it all.
     let center = x + axis * 1.5;
-    assert!(sample_ball(x, center, 1.5e-150, DVec3::splat(0.5)).is_none());
-    assert_eq!(ball_pdf(x, center, 1.5e-150, axis), 0.0);
-    for a in [1e-100f64, 1e-9, 1e-4, 0.09, 0.7, 1.5, PI / 2.0 - 1e-4] {
+    assert!(sample_ball(x, center, 1.5e-60, DVec3::splat(0.5)).is_none());
+    assert_eq!(ball_pdf(x, center, 1.5e-60, axis), 0.0);
+    for a in [1e-50f64, 1e-9, 1e-4, 0.09, 0.7, 1.5, PI / 2.0 - 1e-4] {
         let (dist, radius) = (1.5, 1.5 * a.sin());
         let center = x + axis * dist;
         for ux in [0.0, 1e-12, 0.25, 0.5, 0.999999, 1.0 - f64::EPSILON / 2.0] {

@@ -54,45 +54,44 @@ pub struct LightSample {
     pub distance: f64,
 }
 
-/// The cone a ball fills, seen from a point outside it: its axis, the distance to the centre,
-/// `1 - cos a` and the pdf's constant factor.
+/// The cone a ball fills, seen from a point outside it: its axis, the distance to the centre
+/// and `1 - cos a`.
 #[derive(Debug)]
 struct Cone {
     axis: DVec4,
     distance: f64,
-    /// `1 - cos a`, from `sin a = r / d` as `sin^2 a / (1 + cos a)` (no cancellation in a tiny
-    /// cone).
+    /// `1 - cos a`, from `sin^2 a = r^2 / d^2` as `sin^2 a / (1 + cos a)` (no cancellation in a
+    /// tiny cone).
     depth: f64,
-    /// `3 / (8 pi depth^(3/2))`.
-    scale: f64,
 }
 
 impl Cone {
     /// The cone of the ball (`center`, `r`) seen from `x`; `None` when `x` is inside the ball or
     /// on its surface, the values are not usable, or the cone is too narrow for its pdf to be a
-    /// number (below about 1e-102 rad): no light sample is drawn there, and BSDF samples that
-    /// meet the light take all the weight (`ball_pdf` is 0), as from inside it.
+    /// number (`depth^3` is 0: below about 1e-54 rad): no light sample is drawn there, and BSDF
+    /// samples that meet the light take all the weight (`ball_pdf` is 0), as from inside it.
+    /// The square roots of `d^2` and of `cos^2 a` do not wait for each other.
     fn of(x: DVec4, center: DVec4, r: f64) -> Option<Cone> {
         let to = center - x;
-        let d = to.length();
-        if !(d.is_finite() && r > 0.0 && d > r) {
+        let dd = to.length_squared();
+        if !(dd.is_finite() && r > 0.0 && dd > r * r) {
             return None;
         }
-        let sin = r / d;
-        let sin2 = sin * sin;
+        let sin2 = r * r / dd;
         let depth = sin2 / (1.0 + (1.0 - sin2).sqrt());
-        let scale = 3.0 / (8.0 * PI * depth * depth.sqrt());
-        scale.is_finite().then(|| Cone {
+        let d = dd.sqrt();
+        (depth * depth * depth > 0.0).then(|| Cone {
             axis: to / d,
             distance: d,
             depth,
-            scale,
         })
     }
 
-    /// The solid-angle pdf of a direction at `cos theta` from the axis (`1 + cos theta` given).
+    /// The solid-angle pdf of a direction at `cos theta` from the axis (`1 + cos theta` given,
+    /// at least `2 - depth`): `3 / (8 pi depth^(3/2) sqrt(1 + cos theta))` with one square root
+    /// and one division, at most about 1e162 (`Cone::of`).
     fn pdf(&self, one_plus_cos: f64) -> f64 {
-        self.scale / one_plus_cos.sqrt()
+        3.0 / (8.0 * PI) / (self.depth * (self.depth * one_plus_cos).sqrt())
     }
 }
 
