@@ -226,33 +226,41 @@ fn ball_pdf_integrates_to_one_over_the_cone() {
 }
 
 /// Samples stay in the cone and finite at every cone size and every `u`, up to `u` just below
-/// 1 (whose `u^(2/3)` the cube root may round past 1): the rim at most, never beyond.
+/// 1 (whose `u^(2/3)` the cube root may round past 1): the rim at most, never beyond, and the
+/// angle where `u` puts it. Along the `w` axis the local frame is exact, so the angle is
+/// measured to its own precision even in a cone of 1e-50 rad.
 #[test]
 fn ball_samples_stay_in_the_cone() {
-    let x = DVec4::new(0.2, 0.1, -0.3, 0.05);
-    let axis = DVec4::new(-0.3, 0.6, 0.2, 0.7).normalize();
-    // Below about 1e-54 rad the pdf would overflow: no sample, and BSDF samples take it all.
-    let center = x + axis * 1.5;
-    assert!(sample_ball(x, center, 1.5e-60, DVec3::splat(0.5)).is_none());
-    assert_eq!(ball_pdf(x, center, 1.5e-60, axis), 0.0);
+    // Below about 1e-54 rad `(1 - cos a)^3` underflows: no sample, and BSDF samples take it all.
+    let (x, axis) = (DVec4::ZERO, DVec4::W);
+    assert!(sample_ball(x, axis * 1.5, 1.5e-60, DVec3::splat(0.5)).is_none());
+    assert_eq!(ball_pdf(x, axis * 1.5, 1.5e-60, axis), 0.0);
     for a in [1e-50f64, 1e-9, 1e-4, 0.09, 0.7, 1.5, PI / 2.0 - 1e-4] {
         let (dist, radius) = (1.5, 1.5 * a.sin());
         let center = x + axis * dist;
         for ux in [0.0, 1e-12, 0.25, 0.5, 0.999999, 1.0 - f64::EPSILON / 2.0] {
             let (wo, pdf, _) = sample_ball(x, center, radius, DVec3::new(ux, 0.3, 0.8)).unwrap();
             assert!(pdf.is_finite() && pdf > 0.0, "a {a} u {ux}: pdf {pdf}");
-            let theta = (wo - axis * wo.dot(axis)).length().atan2(wo.dot(axis));
-            // Within the rounding of a unit vector's coordinates (1e-16) of the rim.
-            assert!(
-                theta <= a * (1.0 + 1e-9) + 1e-15,
-                "a {a} u {ux}: theta {theta}"
-            );
+            let theta = wo.truncate().length().atan2(wo.w);
+            assert!(theta <= a * (1.0 + 1e-9), "a {a} u {ux}: theta {theta}");
             // The cdf inverts: the sampled angle is where `u` puts it.
-            if a > 1e-6 {
-                let back = cone_cdf(a, theta);
-                assert!((back - ux).abs() < 1e-9, "a {a} u {ux}: cdf {back}");
-            }
+            let back = cone_cdf(a, theta);
+            assert!((back - ux).abs() < 1e-9, "a {a} u {ux}: cdf {back}");
         }
+    }
+    // A direction that rounds past the rim, or points away, takes the rim's pdf: never an
+    // infinite or NaN weight.
+    let (center, rim) = (axis * 2.0, cone_pdf(PI / 6.0, PI / 6.0));
+    for wo in [
+        -axis,
+        DVec4::X,
+        DVec4::new(1e-9, 0.0, 0.0, -1.0).normalize(),
+    ] {
+        let pdf = ball_pdf(x, center, 1.0, wo);
+        assert!(
+            (pdf - rim).abs() <= 1e-12 * rim,
+            "{wo}: {pdf} against {rim}"
+        );
     }
 }
 
