@@ -66,10 +66,8 @@ pub struct Cell {
     pub lo: DVec4,
     pub size: f64,
     /// The 16 children, each built when a ray first reaches it; none when the cell is not
-    /// split. Held in one block, not each behind a box of its own: finding a point's cell
-    /// then reads one place a level (the child's lock beside its first cache line), not a
-    /// pointer and then the cell it points to.
-    children: Box<[OnceLock<Cell>]>,
+    /// split.
+    children: Box<[OnceLock<Box<Cell>>]>,
     /// Lower bounds over the cell of the scene's distance and the interior's (minus infinity
     /// where unknown).
     pub lower: [f64; 2],
@@ -636,7 +634,7 @@ impl Cell {
                 (kid.graph.graph.len() + CELL_NODES) as u64,
                 Ordering::Relaxed,
             );
-            kid
+            Box::new(kid)
         }))
     }
 }
