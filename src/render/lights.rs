@@ -13,15 +13,15 @@
 //! of half-angle `a`, `sin a = R / d`; every direction of the cone meets the ball, and only
 //! those do. The S^2 of directions at angle `theta` from the axis has area `4 pi sin^2 theta`,
 //! so with `v = 1 - cos theta` (`dv = sin theta dtheta`) a solid angle is `4 pi sin theta dv`
-//! and `sin theta = sqrt(v (2 - v))`. A direction uniform in the cone would need `v`'s density
-//! `~ sqrt(v (2 - v))` inverted, a transcendental equation (`theta - sin theta cos theta = y`)
-//! solved by Newton with two `sin_cos` and an `asin` per sample. Instead `v` is drawn with the
-//! density `~ sqrt(v)` on `[0, 1 - cos a]`, whose inverse is closed: `v = (1 - cos a) u^(2/3)`,
-//! and the other two angles are a uniform direction on the S^2 orthogonal to the axis. Its
-//! solid-angle pdf is `3 / (8 pi (1 - cos a)^(3/2) sqrt(1 + cos theta))`: within a factor
-//! `sqrt(2 / (1 + cos a))` of uniform over the cone (1.005 for a cone of 0.2 rad, 1.41 at
-//! most, for a point on the ball's surface), and `cos a` comes from `sin a` by a square root,
-//! without the angle itself. The price is a little variance: the pdf grows towards the rim,
+//! and `sin theta = sqrt(v (2 - v))`. A direction uniform in the cone would need `v`'s
+//! density `~ sqrt(v (2 - v))` inverted, a transcendental equation (`theta - sin theta cos
+//! theta = y`) solved by Newton with two `sin_cos` and an `asin` per sample. Instead `v` is
+//! drawn with the density `~ sqrt(v)` on `[0, 1 - cos a]`, whose inverse is closed:
+//! `v = (1 - cos a) u^(2/3)`, and the other two angles are a uniform direction on the S^2
+//! orthogonal to the axis. Its solid-angle pdf is `3 / (8 pi (1 - cos a)^(3/2) sqrt(1 + cos
+//! theta))`: within a factor `sqrt(2 / (1 + cos a))` of uniform over the cone (1.005 for a
+//! cone of 0.2 rad, 1.41 at most, for a point on the ball's surface), and `cos a` comes from
+//! `sin a` by a square root, without the angle itself. The price is a little variance: the pdf grows towards the rim,
 //! where a surface facing the lamp sees it at a slant, so the direct light of a lamp straight
 //! above a floor has 1.4 to 1.6 times the variance per sample that uniform directions give (a
 //! small share of a real scene's noise: the room's error at equal samples is unchanged, and it

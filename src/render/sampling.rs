@@ -32,8 +32,9 @@ pub fn uniform_s2(u1: f64, u2: f64) -> DVec3 {
 /// radius of a point in the 3-ball (`f64::cbrt` was a twentieth of the room's render): the
 /// exponent divided by three in the bits (Kahan's constant, within 3.2%), then two steps of
 /// Halley's iteration, `y (r + 2) / (2 r + 1)` with `r = y^3 / x` (cubic: 1e-14 after two;
-/// three Newton steps took six divisions in a row). `r` is taken as `(y / x) y^2` through `1 / x`, whose factors neither
-/// overflow nor underflow anywhere in the normal range (subnormal `x` is scaled into it).
+/// three Newton steps took six divisions in a row). `r` is taken as `(y / x) y^2` through
+/// `1 / x`, whose factors neither overflow nor underflow anywhere in the normal range
+/// (subnormal `x` is scaled into it).
 pub fn cube_root(x: f64) -> f64 {
     if !(x > 0.0 && x.is_finite()) {
         return x.max(0.0);
