@@ -486,8 +486,9 @@ fn every_marcher_corpus_scene_compiles() {
     }
 }
 
-/// The corpus takes more pairs of a short scene until its default renders add up to half a
-/// second (at most 31), and at least as many as asked; its ratio is the median of the pairs'.
+/// The corpus takes more pairs of a short scene until its default renders add up to a second
+/// (at most 61), and at least as many as asked; its ratio is the median of the pairs', within
+/// their interval.
 #[test]
 fn the_corpus_times_short_scenes_more_often() {
     use hyperslice::sweep::corpus;
@@ -497,8 +498,40 @@ fn the_corpus_times_short_scenes_more_often() {
         .into_scene_named("tiny")
         .expect("a generated scene compiles");
     let m = corpus::measure("tiny", &scene, 1, Some(1)).expect("renders");
-    assert_eq!(m.pairs, 31, "{m:?}");
+    assert_eq!(m.pairs, 61, "{m:?}");
     assert!(m.ratio.is_finite() && m.ratio > 0.0, "{m:?}");
-    let m = corpus::measure("tiny", &scene, 40, Some(1)).expect("renders");
-    assert_eq!(m.pairs, 40, "{m:?}");
+    let (lo, hi) = m.interval.expect("61 pairs give an interval");
+    assert!(lo <= m.ratio && m.ratio <= hi, "{m:?}");
+    let m = corpus::measure("tiny", &scene, 70, Some(1)).expect("renders");
+    assert_eq!(m.pairs, 70, "{m:?}");
+}
+
+/// The corpus's interval of a median (`corpus::median_interval`) is the sign test's: none
+/// from five samples (the extremes cover only 94%), the extremes from six, the 10th and 22nd
+/// of 31; and it covers the median of the distribution the samples came from in 97% of draws
+/// of 31 (the binomial's exact 1 - 2 P(B <= 9)), within 1.5 points over 4,000 draws.
+#[test]
+fn the_corpus_interval_covers_the_median() {
+    use hyperslice::sweep::corpus::median_interval;
+    use rand::{Rng, SeedableRng};
+    let count = |n: usize| (1..=n).map(|x| x as f64).collect::<Vec<f64>>();
+    assert_eq!(median_interval(&count(5)), None);
+    assert_eq!(median_interval(&count(6)), Some((1.0, 6.0)));
+    assert_eq!(median_interval(&count(31)), Some((10.0, 22.0)));
+    assert_eq!(median_interval(&count(61)), Some((23.0, 39.0)));
+    let mut rng = rand_pcg::Pcg64::seed_from_u64(7);
+    let draws = 4000;
+    let covered = (0..draws)
+        .filter(|_| {
+            // A skewed distribution, as render times are: exp of a normal-ish sum, median 1.
+            let mut v: Vec<f64> = (0..31)
+                .map(|_| ((0..4).map(|_| rng.random::<f64>() - 0.5).sum::<f64>()).exp())
+                .collect();
+            v.sort_by(f64::total_cmp);
+            let (lo, hi) = median_interval(&v).expect("31 samples");
+            lo <= 1.0 && 1.0 <= hi
+        })
+        .count();
+    let share = covered as f64 / draws as f64;
+    assert!((share - 0.9706).abs() < 0.015, "covered {share}");
 }

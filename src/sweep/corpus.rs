@@ -160,6 +160,9 @@ pub struct Measured {
     /// The median over the pairs of default over plain: a pair's two renders run one after
     /// the other, so the machine's load drifting between pairs cancels in each ratio.
     pub ratio: f64,
+    /// A 95% confidence interval of the ratio (`median_interval` of the pairs' ratios), where
+    /// there are pairs enough for one: a ratio whose interval holds 1 is within the noise.
+    pub interval: Option<(f64, f64)>,
     /// Paired renders taken (`measure`).
     pub pairs: u32,
     pub default_out_of_steps: u64,
@@ -171,9 +174,10 @@ pub struct Measured {
 /// A scene's pairs go on past `runs` until the default marcher's renders add up to this
 /// many seconds: a 5 ms render timed three times moved its ratio between 1.0 and 2.2 from
 /// one run of the corpus to the next.
-const MIN_SECONDS: f64 = 0.5;
-/// The most pairs a scene takes (unless `runs` asks for more).
-const MAX_PAIRS: u32 = 31;
+const MIN_SECONDS: f64 = 1.0;
+/// The most pairs a scene takes (unless `runs` asks for more): 61 give a ratio's interval
+/// (`median_interval`) between the 23rd and 39th of them, where 31 gave the 10th and 22nd.
+const MAX_PAIRS: u32 = 61;
 
 /// Render `scene` at least `runs` times with each marcher, alternating (each pair in the other
 /// order from the last), on `threads`, and on until the default's renders add up to
@@ -204,17 +208,40 @@ pub fn measure(name: &str, scene: &Scene, runs: u32, threads: Option<usize>) -> 
         pairs += 1;
     }
     let mut ratios: Vec<f64> = times[0].iter().zip(&times[1]).map(|(d, p)| d / p).collect();
+    ratios.sort_by(f64::total_cmp);
     let first = Frames::new(scene).at(0.0, Build::marcher(MarcherKind::Auto));
     Ok(Measured {
         choice: first.probe.expect("the default marcher probes").choice(),
         name: name.to_string(),
         default_s: median(&mut times[0]),
         plain_s: median(&mut times[1]),
+        interval: median_interval(&ratios),
         ratio: median(&mut ratios),
         pairs,
         default_out_of_steps: out_of_steps[0],
         plain_out_of_steps: out_of_steps[1],
     })
+}
+
+/// A confidence interval of at least 95% for the median of the distribution `sorted` (in
+/// increasing order) was drawn from, whatever that distribution: its `k`th smallest and `k`th
+/// largest, `k` the largest with `P(B < k) <= 2.5%` for `B` binomial with `n` trials of
+/// one half (the sign test's interval; Conover, "Practical Nonparametric Statistics", 3.2).
+/// None below 6 samples, where even the extremes cover less.
+pub fn median_interval(sorted: &[f64]) -> Option<(f64, f64)> {
+    let n = sorted.len();
+    // P(B = j) from ln C(n, j) - n ln 2, summed while the tail stays within 2.5%.
+    let (mut ln_choose, mut tail, mut k) = (0.0f64, 0.0, 0);
+    while k < n / 2 {
+        let p = (ln_choose - n as f64 * std::f64::consts::LN_2).exp();
+        if tail + p > 0.025 {
+            break;
+        }
+        tail += p;
+        k += 1;
+        ln_choose += ((n + 1 - k) as f64 / k as f64).ln();
+    }
+    (k > 0).then(|| (sorted[k - 1], sorted[n - k]))
 }
 
 /// The geometric mean of the ratios.
