@@ -238,7 +238,7 @@ impl Store for FilmDir {
         }))
     }
 
-    fn save(&self, p: &Progress) -> Result<()> {
+    fn save(&self, p: Progress) -> Result<()> {
         let (w, h) = (self.template.width as usize, self.template.height as usize);
         // The scales finishing needs, of a frame's finished film of all its samples: read
         // back, its sums are these, bit for bit.

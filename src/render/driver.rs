@@ -26,6 +26,35 @@ use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
+/// The integrator's working memory, kept from one piece of work to the next: rayon asks
+/// `map_init` for a fresh one in every job it splits off, and paths, rays and marcher state
+/// grown from empty each time (a megabyte of new pages) were a third of a small frame's render.
+#[derive(Default)]
+struct Scratches(std::sync::Mutex<Vec<(Scratch, Vec<bool>)>>);
+
+/// A scratch space out of `Scratches`, which it goes back to when dropped.
+struct Held<'a> {
+    scratch: (Scratch, Vec<bool>),
+    home: &'a Scratches,
+}
+
+impl Scratches {
+    fn take(&self) -> Held<'_> {
+        let kept = self.0.lock().unwrap_or_else(|e| e.into_inner()).pop();
+        Held {
+            scratch: kept.unwrap_or_default(),
+            home: self,
+        }
+    }
+}
+
+impl Drop for Held<'_> {
+    fn drop(&mut self) {
+        let scratch = std::mem::take(&mut self.scratch);
+        (self.home.0.lock().unwrap_or_else(|e| e.into_inner())).push(scratch);
+    }
+}
+
 /// Tile edge in pixels.
 const TILE: u32 = 16;
 /// Samples a pixel takes before adaptive sampling judges its noise.
@@ -122,8 +151,9 @@ pub trait Store: Sync {
     /// What an earlier run left of `unit`, if anything.
     fn load(&self, unit: &Unit) -> Result<Option<Progress>>;
     /// Keep `progress` (called when a unit finishes, now and then while it runs, and for every
-    /// unit in flight when the render is cancelled).
-    fn save(&self, progress: &Progress) -> Result<()>;
+    /// unit in flight when the render is cancelled). By value: memory keeps it as it is,
+    /// where a copy of a small frame's sums (a fresh megabyte) was a tenth of its render.
+    fn save(&self, progress: Progress) -> Result<()>;
 }
 
 /// A [`Store`] in memory.
@@ -146,9 +176,8 @@ impl Store for MemoryStore {
             .get(unit)
             .cloned())
     }
-    fn save(&self, progress: &Progress) -> Result<()> {
-        (self.0.lock().unwrap_or_else(|e| e.into_inner()))
-            .insert(progress.unit.clone(), progress.clone());
+    fn save(&self, progress: Progress) -> Result<()> {
+        (self.0.lock().unwrap_or_else(|e| e.into_inner())).insert(progress.unit.clone(), progress);
         Ok(())
     }
 }
@@ -355,6 +384,7 @@ pub fn render_units(
         }
     }
     let group = pool.current_num_threads().clamp(1, FRAME_GROUP);
+    let scratches = Scratches::default();
     let mut stats = Stats::default();
     let mut spent_per_sample = None;
     let mut remaining = todo.len();
@@ -425,8 +455,9 @@ pub fn render_units(
                             .map(move |(sums, tile)| (i, scene, initial, frame, sums, tile))
                     })
                     .map_init(
-                        || (Scratch::default(), Vec::new()),
-                        |(scratch, active), (i, fs, initial, f, sums, tile)| {
+                        || scratches.take(),
+                        |held, (i, fs, initial, f, sums, tile)| {
+                            let (scratch, active) = &mut held.scratch;
                             let mut st = Stats::default();
                             active.clear();
                             active.extend(sums.iter().map(takes));
@@ -467,7 +498,7 @@ pub fn render_units(
                     .filter(|w| w.saved.elapsed() >= CHECKPOINT)
                     .map(|w| {
                         w.saved = Instant::now();
-                        store.save(&w.progress(&tiles, r.width, r.height, false))
+                        store.save(w.progress(&tiles, r.width, r.height, false))
                     })
                     .collect::<Result<Vec<()>>>()
             })?;
@@ -476,7 +507,7 @@ pub fn render_units(
         // Encoding films is real work (compression): the frames of a group in parallel.
         pool.install(|| {
             (work.par_iter())
-                .map(|w| store.save(&w.progress(&tiles, r.width, r.height, complete)))
+                .map(|w| store.save(w.progress(&tiles, r.width, r.height, complete)))
                 .collect::<Result<Vec<()>>>()
         })?;
         if !complete {
