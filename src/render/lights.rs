@@ -21,11 +21,11 @@
 //! orthogonal to the axis. Its solid-angle pdf is `3 / (8 pi (1 - cos a)^(3/2) sqrt(1 + cos
 //! theta))`: within a factor `sqrt(2 / (1 + cos a))` of uniform over the cone (1.005 for a
 //! cone of 0.2 rad, 1.41 at most, for a point on the ball's surface), and `cos a` comes from
-//! `sin a` by a square root, without the angle itself. The price is a little variance: the pdf grows towards the rim,
-//! where a surface facing the lamp sees it at a slant, so the direct light of a lamp straight
-//! above a floor has 1.4 to 1.6 times the variance per sample that uniform directions give (a
-//! small share of a real scene's noise: the room's error at equal samples is unchanged, and it
-//! renders 12% faster).
+//! `sin a` by a square root, without the angle itself. The price is a little variance: the
+//! pdf grows towards the rim, where a surface facing the lamp sees it at a slant, so the
+//! direct light of a lamp straight above a floor has 1.4 to 1.6 times the variance per sample
+//! that uniform directions give (a small share of a real scene's noise: the room's error at
+//! equal samples is unchanged, and its frames render about 11% faster).
 
 use super::sampling::{Frame, cube_root, uniform_s2};
 use glam::{DVec3, DVec4};
