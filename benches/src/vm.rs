@@ -79,7 +79,7 @@ impl VmCells {
     }
 
     pub fn eval(&mut self, pts: &crate::workload::Points, out: &mut [f32]) {
-        let cells = &self.frame.cells;
+        let cells = (self.frame.cells.as_ref()).expect("a frame built with cells");
         self.reach.resize(pts.len(), 0.0);
         let mut path = cells.path();
         let mut i = 0;

@@ -6,7 +6,7 @@
 
 use clap::Parser;
 use hyperslice::Compilation;
-use hyperslice::render::driver::{self, Options};
+use hyperslice::{Monitor, RenderOptions as Options};
 use std::path::PathBuf;
 use std::time::Duration;
 
@@ -68,7 +68,7 @@ fn main() {
                 general,
                 ..Options::default()
             };
-            let r = driver::render(&scene, &options, &|_| {}).expect("render");
+            let r = hyperslice::render(&scene, &options, Monitor::SILENT).expect("render");
             (r.elapsed, r.frames)
         };
         let (_, a) = run(false);
