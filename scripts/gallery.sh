@@ -4,7 +4,7 @@
 # to their scenes. Run from the repository root: bash scripts/gallery.sh
 set -euo pipefail
 cargo build --release --quiet
-bin=target/release/hyperslice
+bin="${CARGO_TARGET_DIR:-target}/release/hyperslice"
 out=docs/gallery/shapes
 mkdir -p "$out"
 work=$(mktemp -d)

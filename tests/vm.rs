@@ -894,7 +894,8 @@ fn emitted_cell_bytecode_is_what_the_marcher_runs() {
     use hyperslice::compile::Frames;
     use hyperslice::render::frame::{Build, FrameSource};
     use hyperslice::render::march::{Hit, Marcher, MarcherKind, Ray, Trace};
-    let many = (0..24)
+    // More boxes than a cell meets exactly without splitting (`FEW_PIECES`).
+    let many = (0..40)
         .map(|i| {
             let (x, z) = ((i % 6) as f64 - 2.5, (i / 6) as f64 * 1.5);
             format!(
@@ -1465,49 +1466,60 @@ fn tiled_balls_meet_rays_where_the_distance_reaches_zero() {
     assert!(!tiled(&parts) && rest.len() == 2, "{parts:?} {rest:?}");
 }
 
-/// Where the objects' pieces are more than a cell meets one by one, a partial cell keeps
-/// those of the objects with fewest pieces exact and leaves the others to the tape: a floor
-/// and a lamp beside seven rounded boxes and a custom field (which once made the whole cell
-/// marched on its tape: nine pieces were too many to be exact at all).
+/// Where the objects' pieces are more than a cell meets one by one (`MAX_PIECES`), a partial
+/// cell keeps those of the objects with fewest pieces exact and leaves the others to the
+/// tape: a floor and a lamp beside nine objects of seven rounded boxes each and a custom
+/// field (which once made the whole cell marched on its tape: its pieces were too many to be
+/// exact at all).
 #[test]
 fn partial_cells_keep_the_objects_of_fewest_pieces_exact() {
-    use hyperslice::ir::exact::{Form, partition};
-    let boxes: Vec<String> = (0..7)
-        .map(|i| {
+    use hyperslice::ir::exact::{Form, MAX_PIECES, partition};
+    let (objects, each) = (9, 7);
+    assert!(objects * each <= MAX_PIECES && objects * each + 2 > MAX_PIECES);
+    let boxes: String = (0..objects)
+        .map(|o| {
+            let members: Vec<String> = (0..each)
+                .map(|i| {
+                    format!(
+                        "hyperbox(0.3) |> round(0.1) |> translate([{}, 0.4, {o}, 0])",
+                        i as f64 - 3.0
+                    )
+                })
+                .collect();
             format!(
-                "hyperbox(0.3) |> round(0.1) |> translate([{}, 0.4, 0, 0])",
-                i as f64 - 3.0
+                "object boxes{o} {{ shape = union({}) }}\n",
+                members.join(", ")
             )
         })
         .collect();
+    let blob =
+        "object blob { shape = sdf |p| length(p - [0, 2, 3, 0]) - 0.5 + 0.1 * sin(p.x * 1rad) }";
     let scene = compile_text(&format!(
-        "object boxes {{ shape = union({}) }}\n\
-         object floor {{ shape = halfspace([0, 1, 0, 0], offset: 0) }}\n\
-         object lamp {{ shape = hypersphere(0.5) |> translate([0, 4, 0, 0]) }}\n\
-         object blob {{ shape = sdf |p| length(p - [0, 2, 3, 0]) - 0.5 + 0.1 * sin(p.x * 1rad) }}",
-        boxes.join(", ")
+        "{boxes}object floor {{ shape = halfspace([0, 1, 0, 0], offset: 0) }}\n\
+         object lamp {{ shape = hypersphere(0.5) |> translate([0, 4, 0, 0]) }}\n{blob}"
     ));
     let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
     let (parts, rest) = partition(&program.ir.graph, program.ir.distance, program.ir.nearest)
         .expect("the floor and the lamp apart from the rest");
-    let objects: Vec<f64> = parts.iter().map(|p| p.object).collect();
-    assert_eq!(objects, [1.0, 2.0], "{parts:?}");
-    assert!(
-        matches!(parts[0].form, Form::Plane { .. }) && matches!(parts[1].form, Form::Ball { .. })
-    );
+    // The floor and the lamp, then as many of the box objects as there is room for (ties in
+    // the objects' order), listed in the objects' order.
+    let exact: Vec<f64> = parts.iter().map(|p| p.object).collect();
+    let mut expected: Vec<f64> = (0..objects - 1)
+        .flat_map(|o| std::iter::repeat_n(o as f64, each))
+        .collect();
+    expected.extend([objects as f64, objects as f64 + 1.0]);
+    assert_eq!(exact, expected);
+    assert!(matches!(parts[parts.len() - 2].form, Form::Plane { .. }));
+    assert!(matches!(parts[parts.len() - 1].form, Form::Ball { .. }));
     let rest: Vec<usize> = rest.iter().map(|(o, _)| *o).collect();
-    assert_eq!(rest, [0, 3]);
+    assert_eq!(rest, [objects - 1, objects + 2]);
     // With room for them, the boxes are exact too.
-    let scene = compile_text(&format!(
-        "object boxes {{ shape = union({}) }}\n\
-         object blob {{ shape = sdf |p| length(p - [0, 2, 3, 0]) - 0.5 + 0.1 * sin(p.x * 1rad) }}",
-        boxes.join(", ")
-    ));
+    let scene = compile_text(&format!("{boxes}{blob}"));
     let program = hyperslice::compile::Compiled::new(&scene).program(Some(0.0));
     let (parts, rest) = partition(&program.ir.graph, program.ir.distance, program.ir.nearest)
         .expect("the boxes apart from the field");
     assert!(
-        parts.len() == 7
+        parts.len() == objects * each
             && parts
                 .iter()
                 .all(|p| matches!(p.form, Form::Box { r, .. } if r > 0.0))

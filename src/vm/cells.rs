@@ -47,6 +47,9 @@ const FREE_DEPTH: u32 = 2;
 /// A cell whose tapes have at most this many instructions is not split further: running
 /// them costs less than building the children.
 const SPLIT_LEN: usize = 48;
+/// Exact cells of more pieces than this still split while that shortens their tapes: a ray
+/// meets every piece of its cell.
+pub const FEW_PIECES: usize = 24;
 /// A cell whose tapes are longer than this is split even when its parent's were no longer:
 /// the bounds pruning cuts objects by their distance, which takes smaller cells.
 const LONG_LEN: usize = 64;
@@ -488,8 +491,9 @@ impl Cell {
         // Exact cells need no splitting, unless rays inside objects march their f32 interior
         // tape there.
         let finer = depth < PRECISE_DEPTH && size > PRECISE_EDGE * needs.epsilon.max(PRECISE_FLOOR);
+        let many = exact.as_ref().is_none_or(|e| e.len() > FEW_PIECES);
         let split = !empty
-            && ((shorter && exact.is_none())
+            && ((shorter && many)
                 || (finer && (exact.is_none() || needs.interior && inner.is_none())));
         Cell {
             lo,

@@ -268,8 +268,10 @@ fn ball_roots(u: [f64; 4], w: [f64; 4], r: f64) -> Option<(f64, f64)> {
     Some((t0.min(t1), t0.max(t1)))
 }
 
-/// Most pieces worth intersecting one by one.
-const MAX_PIECES: usize = 8;
+/// Most pieces a cell meets one by one (each a few ns: a hypersphere 14). Cells of more than
+/// `vm::cells::FEW_PIECES` still split while that shortens their tapes; this many are met where
+/// splitting does not separate them.
+pub const MAX_PIECES: usize = 64;
 
 /// The scene's distance `dist` with nearest object `near` as the smallest of a few pieces,
 /// when it is one.

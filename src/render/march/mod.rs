@@ -423,9 +423,10 @@ impl Marcher {
                     let beyond = past(st.exit(cells, cell, p, r.d), cell);
                     let reach = (beyond.min(r.tmax - st.t), CELLS << (st.steps / 4).min(2));
                     let met = meet(pieces, p - cell.origin, r.d, reach);
-                    // A lattice cell crossed costs about as much as `CELL_WORK` instructions
-                    // of a cell's tape: the probe's model weighs the cells' march by them.
-                    self.instructions += (pieces.len() + met.cells * CELL_WORK) as u64;
+                    // A piece met and a lattice cell crossed cost about as much as
+                    // `PIECE_WORK` and `CELL_WORK` instructions of a cell's tape: the probe's
+                    // model weighs the cells' march by them.
+                    self.instructions += (pieces.len() * PIECE_WORK + met.cells * CELL_WORK) as u64;
                     let (near, first) = (met.near, met.first);
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
@@ -463,7 +464,7 @@ impl Marcher {
                             (st.near, st.first) = (met.near, (st.t + met.first.0, met.first.1));
                             st.leave = st.t + st.exit(cells, cell, p, r.d);
                             st.partial = here;
-                            self.instructions += partial.pieces.len() as u64;
+                            self.instructions += (partial.pieces.len() * PIECE_WORK) as u64;
                         } else {
                             st.near.0 = f64::INFINITY;
                         }
@@ -813,6 +814,11 @@ fn approach(
 /// there at about a quarter of its measured time, so 118 / 4 ns at the cells' 0.77 ns an
 /// instruction (see `docs/performance.md`, "A tiled ball met exactly").
 const CELL_WORK: usize = 38;
+
+/// What meeting one piece costs, in the same instructions: a hypersphere took 13 to 15 ns,
+/// whatever the number of pieces (1 to 24 balls, 4,096 random rays each, the best of 30
+/// runs), so a quarter of 14 ns at 0.77 ns an instruction.
+const PIECE_WORK: usize = 4;
 
 /// Most distances `settle` evaluates after the first, and most steps `approach` takes.
 const SETTLE: u32 = 8;
