@@ -59,6 +59,13 @@ pub enum Form {
     Lattice(Box<Tiled>),
 }
 
+const IDENTITY: [[f64; 4]; 4] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
 #[inline(always)]
 fn dot(a: [f64; 4], b: [f64; 4]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
@@ -148,8 +155,14 @@ impl Form {
                 (value, first, f64::INFINITY)
             }
             Form::Ball { rows, b, r, sign } => {
-                let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
-                let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
+                // Most balls are only moved: their rows are the identity's, which adds and
+                // multiplies nothing (exactly, as the products do).
+                let (u, w) = if *rows == IDENTITY {
+                    (std::array::from_fn(|i| p[i] + b[i]), d)
+                } else {
+                    let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
+                    (u, std::array::from_fn(|i| dot(rows[i], d)))
+                };
                 let n = dot(u, u).sqrt();
                 let (s, k) = side(sign * (n - r));
                 // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
