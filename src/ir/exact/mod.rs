@@ -59,6 +59,19 @@ pub enum Form {
     Lattice(Box<Tiled>),
 }
 
+/// The ray from `p` along `d` in a form's coordinates `A p + b` (the rows of `A` in `rows`).
+/// Most balls and boxes are only moved: rows that are the identity's add and multiply
+/// nothing (exactly, as the products would).
+#[inline(always)]
+fn local(rows: &[[f64; 4]; 4], b: &[f64; 4], p: [f64; 4], d: [f64; 4]) -> ([f64; 4], [f64; 4]) {
+    if *rows == IDENTITY {
+        (std::array::from_fn(|i| p[i] + b[i]), d)
+    } else {
+        let u = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
+        (u, std::array::from_fn(|i| dot(rows[i], d)))
+    }
+}
+
 const IDENTITY: [[f64; 4]; 4] = [
     [1.0, 0.0, 0.0, 0.0],
     [0.0, 1.0, 0.0, 0.0],
@@ -155,14 +168,7 @@ impl Form {
                 (value, first, f64::INFINITY)
             }
             Form::Ball { rows, b, r, sign } => {
-                // Most balls are only moved: their rows are the identity's, which adds and
-                // multiplies nothing (exactly, as the products do).
-                let (u, w) = if *rows == IDENTITY {
-                    (std::array::from_fn(|i| p[i] + b[i]), d)
-                } else {
-                    let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
-                    (u, std::array::from_fn(|i| dot(rows[i], d)))
-                };
+                let (u, w) = local(rows, b, p, d);
                 let n = dot(u, u).sqrt();
                 let (s, k) = side(sign * (n - r));
                 // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
@@ -178,8 +184,7 @@ impl Form {
                 r,
                 sign,
             } => {
-                let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
-                let w: [f64; 4] = std::array::from_fn(|i| dot(rows[i], d));
+                let (u, w) = local(rows, b, p, d);
                 let v = boxes::value(u, *half, *r);
                 // The side from the sign alone, which needs no square root: the meeting
                 // then need not wait for one (`v` is only the value's).
