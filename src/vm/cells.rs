@@ -19,7 +19,7 @@
 
 use super::Tape;
 use super::escape::entry;
-use crate::ir::exact::{Pieces, partition, pieces};
+use crate::ir::exact::{Piece, partition, pieces};
 use crate::ir::interval::I;
 use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
@@ -77,10 +77,10 @@ pub struct Cell {
     /// The scene distance as the smallest of a few planes, spheres, boxes and polytopes in
     /// local coordinates, where it is one over the whole cell (halfspaces, walls seen from
     /// inside a box, a hypersphere alone): rays meet it exactly.
-    pub exact: Option<Pieces>,
+    pub exact: Option<Vec<Piece>>,
     /// The interior's unsigned distance as such pieces, for rays inside objects (the faces
     /// of a glass box and the floor under it, each of whose `|f|` is met on the ray's side).
-    pub inner: Option<Pieces>,
+    pub inner: Option<Vec<Piece>>,
     /// Where the tapes' local coordinates are zero.
     pub origin: DVec4,
     /// Outputs: signed distance to the nearest visible object and its index (as `vm::Program`).
@@ -116,7 +116,7 @@ pub struct Cell {
 /// grazing a floor next to a box steps on the box's distance, not on its height over the
 /// floor.
 pub struct Partial {
-    pub pieces: Pieces,
+    pub pieces: Vec<Piece>,
     pub rest: Tape,
 }
 
@@ -435,10 +435,7 @@ fn partial(pr: &Pruned, place: Place, needs: Needs) -> Option<Partial> {
     };
     let (precise, roots) = place.precise(&rest, needs.epsilon);
     let tape = Tape::compile("rest", precise.as_ref().unwrap_or(&rest.graph), &roots);
-    Some(Partial {
-        pieces: pieces.into(),
-        rest: tape,
-    })
+    Some(Partial { pieces, rest: tape })
 }
 
 impl Cell {
@@ -471,11 +468,10 @@ impl Cell {
             0.0
         };
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
-        let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]).map(Pieces::from);
+        let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
         let inner = (needs.interior)
             .then(|| pieces(&pr.graph, pr.roots[2], pr.roots[3]))
-            .flatten()
-            .map(Pieces::from);
+            .flatten();
         let scene_rounding = if lower[0] > 0.0 || exact.is_some() {
             0.0
         } else {
@@ -525,8 +521,8 @@ impl Cell {
 
     /// The pieces that rays outside objects (`interior` false) or inside them meet exactly in
     /// the cell, where its distance for them is one.
-    pub fn pieces(&self, interior: bool) -> Option<&Pieces> {
-        if interior { &self.inner } else { &self.exact }.as_ref()
+    pub fn pieces(&self, interior: bool) -> Option<&[Piece]> {
+        if interior { &self.inner } else { &self.exact }.as_deref()
     }
 
     /// The cell's pieces and the tape of the rest, where it is partial (not exact).
@@ -663,14 +659,16 @@ pub struct Met {
 
 /// What the ray from `p` (local to the pieces' cell) along `d` meets of `pieces`, looking at
 /// least `limit` far, or across at most `cells` cells of a tiled ball's lattice.
-pub fn meet(pieces: &Pieces, p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
+pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
+    let (p, d) = (p.to_array(), d.to_array());
     let mut met = Met {
         near: (f64::INFINITY, 0.0),
         first: (f64::INFINITY, 0.0),
         clear: f64::INFINITY,
         cells: 0,
     };
-    pieces.meet_each(p.to_array(), d.to_array(), reach, |piece, m| {
+    for piece in pieces {
+        let m = piece.form.meet(p, d, reach);
         if m.value < met.near.0 {
             met.near = (m.value, piece.object);
         }
@@ -679,7 +677,7 @@ pub fn meet(pieces: &Pieces, p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
             Some(t) if t < met.first.0 => met.first = (t, piece.object),
             _ => {}
         }
-    });
+    }
     // Beyond where one piece's crossing gave up, it may be met before the first of the others.
     if met.first.0 > met.clear {
         met.first = (f64::INFINITY, 0.0);
