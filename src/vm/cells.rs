@@ -19,7 +19,7 @@
 
 use super::Tape;
 use super::escape::entry;
-use crate::ir::exact::{Piece, partition, pieces};
+use crate::ir::exact::{Meeting, Piece, Pieces, partition, pieces};
 use crate::ir::interval::I;
 use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
@@ -77,10 +77,10 @@ pub struct Cell {
     /// The scene distance as the smallest of a few planes, spheres, boxes and polytopes in
     /// local coordinates, where it is one over the whole cell (halfspaces, walls seen from
     /// inside a box, a hypersphere alone): rays meet it exactly.
-    pub exact: Option<Vec<Piece>>,
+    pub exact: Option<Pieces>,
     /// The interior's unsigned distance as such pieces, for rays inside objects (the faces
     /// of a glass box and the floor under it, each of whose `|f|` is met on the ray's side).
-    pub inner: Option<Vec<Piece>>,
+    pub inner: Option<Pieces>,
     /// Where the tapes' local coordinates are zero.
     pub origin: DVec4,
     /// Outputs: signed distance to the nearest visible object and its index (as `vm::Program`).
@@ -116,7 +116,7 @@ pub struct Cell {
 /// grazing a floor next to a box steps on the box's distance, not on its height over the
 /// floor.
 pub struct Partial {
-    pub pieces: Vec<Piece>,
+    pub pieces: Pieces,
     pub rest: Tape,
 }
 
@@ -435,7 +435,10 @@ fn partial(pr: &Pruned, place: Place, needs: Needs) -> Option<Partial> {
     };
     let (precise, roots) = place.precise(&rest, needs.epsilon);
     let tape = Tape::compile("rest", precise.as_ref().unwrap_or(&rest.graph), &roots);
-    Some(Partial { pieces, rest: tape })
+    Some(Partial {
+        pieces: pieces.into(),
+        rest: tape,
+    })
 }
 
 impl Cell {
@@ -468,10 +471,11 @@ impl Cell {
             0.0
         };
         let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
-        let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]);
+        let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]).map(Pieces::from);
         let inner = (needs.interior)
             .then(|| pieces(&pr.graph, pr.roots[2], pr.roots[3]))
-            .flatten();
+            .flatten()
+            .map(Pieces::from);
         let scene_rounding = if lower[0] > 0.0 || exact.is_some() {
             0.0
         } else {
@@ -521,8 +525,8 @@ impl Cell {
 
     /// The pieces that rays outside objects (`interior` false) or inside them meet exactly in
     /// the cell, where its distance for them is one.
-    pub fn pieces(&self, interior: bool) -> Option<&[Piece]> {
-        if interior { &self.inner } else { &self.exact }.as_deref()
+    pub fn pieces(&self, interior: bool) -> Option<&Pieces> {
+        if interior { &self.inner } else { &self.exact }.as_ref()
     }
 
     /// The cell's pieces and the tape of the rest, where it is partial (not exact).
@@ -657,30 +661,57 @@ pub struct Met {
     pub cells: usize,
 }
 
-/// What the ray from `p` (local to the pieces' cell) along `d` meets of `pieces`, looking at
-/// least `limit` far, or across at most `cells` cells of a tiled ball's lattice.
-pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
-    let (p, d) = (p.to_array(), d.to_array());
-    let mut met = Met {
+/// `meet` where some pieces are moved balls (`Pieces::has_moved`), met eight at a time: a
+/// function of its own, chosen by the caller, since their pass inside `meet`, even untaken,
+/// made meeting boxes 9 to 12% slower.
+pub fn meet_moved(pieces: &Pieces, p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
+    let mut met = Met::NONE;
+    for (piece, m) in pieces.meetings(p.to_array(), d.to_array(), reach) {
+        met.take(piece, m);
+    }
+    met.cut()
+}
+
+impl Met {
+    /// Nothing met yet.
+    const NONE: Met = Met {
         near: (f64::INFINITY, 0.0),
         first: (f64::INFINITY, 0.0),
         clear: f64::INFINITY,
         cells: 0,
     };
-    for piece in pieces {
-        let m = piece.form.meet(p, d, reach);
-        if m.value < met.near.0 {
-            met.near = (m.value, piece.object);
+
+    /// A piece's meeting with the ray, after those before it (ties go to the first).
+    #[inline(always)]
+    fn take(&mut self, piece: &Piece, m: Meeting) {
+        if m.value < self.near.0 {
+            self.near = (m.value, piece.object);
         }
-        (met.clear, met.cells) = (met.clear.min(m.clear), met.cells + m.cells);
+        (self.clear, self.cells) = (self.clear.min(m.clear), self.cells + m.cells);
         match m.first {
-            Some(t) if t < met.first.0 => met.first = (t, piece.object),
+            Some(t) if t < self.first.0 => self.first = (t, piece.object),
             _ => {}
         }
     }
-    // Beyond where one piece's crossing gave up, it may be met before the first of the others.
-    if met.first.0 > met.clear {
-        met.first = (f64::INFINITY, 0.0);
+
+    /// Beyond where one piece's crossing gave up, it may be met before the first of the
+    /// others.
+    #[inline(always)]
+    fn cut(mut self) -> Met {
+        if self.first.0 > self.clear {
+            self.first = (f64::INFINITY, 0.0);
+        }
+        self
     }
-    met
+}
+
+/// What the ray from `p` (local to the pieces' cell) along `d` meets of `pieces`, looking at
+/// least `limit` far, or across at most `cells` cells of a tiled ball's lattice.
+pub fn meet(pieces: &[Piece], p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
+    let (p, d) = (p.to_array(), d.to_array());
+    let mut met = Met::NONE;
+    for piece in pieces {
+        met.take(piece, piece.form.meet(p, d, reach));
+    }
+    met.cut()
 }

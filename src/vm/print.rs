@@ -209,7 +209,7 @@ impl fmt::Display for Cell {
         let mut rest = None;
         if let Some(pieces) = &self.exact {
             writeln!(f, "exact: {}", count(pieces.len(), "piece"))?;
-            for p in pieces {
+            for p in pieces.iter() {
                 writeln!(f, "  {p}")?;
             }
         } else if let Some(partial) = self.partial() {
@@ -218,14 +218,14 @@ impl fmt::Display for Cell {
                 "partial: {} met exactly, the rest on tape rest (rays outside objects)",
                 count(partial.pieces.len(), "piece")
             )?;
-            for p in &partial.pieces {
+            for p in partial.pieces.iter() {
                 writeln!(f, "  {p}")?;
             }
             rest = Some(&partial.rest);
         }
         if let Some(pieces) = &self.inner {
             writeln!(f, "inside objects, exact: {}", count(pieces.len(), "piece"))?;
-            for p in pieces {
+            for p in pieces.iter() {
                 writeln!(f, "  {p}")?;
             }
         }

@@ -7,10 +7,12 @@
 //! than the gap it closes. A box, sharp or rounded, is met in closed form piece by piece of the
 //! ray (`boxes`), and a ball tiled over a lattice cell by cell (`lattice`).
 
+mod balls;
 mod boxes;
 mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
+pub use balls::{Meetings, Pieces};
 pub use lattice::{CELLS, Tiled, Tiling};
 
 /// One piece of a distance, on object `object`.
