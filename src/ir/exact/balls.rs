@@ -3,7 +3,7 @@
 //! is one loop without branches, which the compiler runs two balls at a time, with the same
 //! arithmetic, in the same order, as `Form::meet` (so the same bits).
 
-use super::{Form, IDENTITY, Meeting, Piece};
+use super::{Form, IDENTITY, Meeting, Piece, roots, wide};
 use std::ops::Deref;
 
 /// Balls met in one pass of the loop.
@@ -135,18 +135,11 @@ impl Moved {
             let u = [p[0] + b0, p[1] + b1, p[2] + b2, p[3] + b3];
             let uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2] + u[3] * u[3];
             let half_b = u[0] * d[0] + u[1] * d[1] + u[2] * d[2] + u[3] * d[3];
-            let norm = uu.sqrt();
-            *value = norm - r;
-            let wide = half_b * half_b - a * (uu - r * r) < -1e-9 * a * (uu + r * r);
-            let c = (norm - r) * (norm + r);
-            let disc = half_b * half_b - a * c;
-            let q = -(half_b + disc.sqrt().copysign(half_b));
-            let (t0, t1) = (q / a, if q != 0.0 { c / q } else { 0.0 });
-            let (lo, hi) = (t0.min(t1), t0.max(t1));
-            let none = wide || r <= 0.0 || a == 0.0 || disc < 0.0 || disc.is_nan();
-            *first = match (none, lo >= 0.0, hi >= 0.0) {
-                (false, true, _) => lo,
-                (false, false, true) => hi,
+            *value = uu.sqrt() - r;
+            let (meets, lo, hi) = roots(a, half_b, uu, r);
+            *first = match (meets & !wide(a, half_b, uu, r), lo >= 0.0, hi >= 0.0) {
+                (true, true, _) => lo,
+                (true, false, true) => hi,
                 _ => f64::INFINITY,
             };
         }

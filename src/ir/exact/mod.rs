@@ -272,20 +272,33 @@ impl Form {
 fn ball_roots(u: [f64; 4], w: [f64; 4], r: f64) -> Option<(f64, f64)> {
     let (a, half_b, uu) = (dot(w, w), dot(u, w), dot(u, u));
     // Most copies of a tiled ball that a ray passes, it misses: a test without square roots
-    // first, loose by far more than its rounding.
-    if half_b * half_b - a * (uu - r * r) < -1e-9 * a * (uu + r * r) {
+    // first.
+    if wide(a, half_b, uu, r) {
         return None;
     }
+    let (meets, lo, hi) = roots(a, half_b, uu, r);
+    meets.then_some((lo, hi))
+}
+
+/// Whether the ray misses the ball by far more than the rounding of `roots` (`a = w . w`,
+/// `half_b = u . w`, `uu = u . u`).
+#[inline(always)]
+fn wide(a: f64, half_b: f64, uu: f64, r: f64) -> bool {
+    half_b * half_b - a * (uu - r * r) < -1e-9 * a * (uu + r * r)
+}
+
+/// The roots of `|u + t w| = r` in order, without branches (for the moved balls' loop,
+/// `balls`): whether there are any (none where the ball is empty, the direction zero, or
+/// the discriminant negative or NaN, from an infinite copy), and the two.
+#[inline(always)]
+fn roots(a: f64, half_b: f64, uu: f64, r: f64) -> (bool, f64, f64) {
     let norm = uu.sqrt();
     let c = (norm - r) * (norm + r);
     let disc = half_b * half_b - a * c;
-    // A NaN (from an infinite copy) meets nothing, as a negative does.
-    if r <= 0.0 || a == 0.0 || disc < 0.0 || disc.is_nan() {
-        return None;
-    }
     let q = -(half_b + disc.sqrt().copysign(half_b));
     let (t0, t1) = (q / a, if q != 0.0 { c / q } else { 0.0 });
-    Some((t0.min(t1), t0.max(t1)))
+    let meets = !((r <= 0.0) | (a == 0.0) | (disc < 0.0) | disc.is_nan());
+    (meets, t0.min(t1), t0.max(t1))
 }
 
 /// Most pieces a cell meets one by one (each a few ns: a hypersphere 14). Cells of more than

@@ -24,7 +24,7 @@ mod plain;
 
 use crate::ir::exact::CELLS;
 use crate::vm::Tape;
-use crate::vm::cells::{Cell, Cells, epsilon_at, meet, meet_moved};
+use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
 use crate::vm::escape::{Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
@@ -422,10 +422,7 @@ impl Marcher {
                     // cell after cell until its steps run out.
                     let beyond = past(st.exit(cells, cell, p, r.d), cell);
                     let reach = (beyond.min(r.tmax - st.t), CELLS << (st.steps / 4).min(2));
-                    let met = match pieces.has_moved() {
-                        true => meet_moved(pieces, p - cell.origin, r.d, reach),
-                        false => meet(pieces, p - cell.origin, r.d, reach),
-                    };
+                    let met = meet(pieces, p - cell.origin, r.d, reach);
                     // A piece met and a lattice cell crossed cost about as much as
                     // `PIECE_WORK` and `CELL_WORK` instructions of a cell's tape: the probe's
                     // model weighs the cells' march by them.
@@ -463,10 +460,7 @@ impl Marcher {
                             // No tiled ball is a partial cell's piece (`ir::exact::partition`):
                             // its pieces are met to any length.
                             let reach = (f64::INFINITY, CELLS);
-                            let met = match partial.pieces.has_moved() {
-                                true => meet_moved(&partial.pieces, p - cell.origin, r.d, reach),
-                                false => meet(&partial.pieces, p - cell.origin, r.d, reach),
-                            };
+                            let met = meet(&partial.pieces, p - cell.origin, r.d, reach);
                             (st.near, st.first) = (met.near, (st.t + met.first.0, met.first.1));
                             st.leave = st.t + st.exit(cells, cell, p, r.d);
                             st.partial = here;
