@@ -647,16 +647,23 @@ impl Cell {
     }
 }
 
-/// What a ray meets of a cell's pieces (`meet`), each as (distance or `t`, object).
+/// What a ray meets of a cell's pieces (`meet`), each as (distance or `t`, object): read
+/// through `near` and `first`. The numbers of a pair lie apart: the out-of-line meetings write
+/// them one at a time, and a pair copied as one 16-byte load could not be forwarded from those
+/// two stores (it waited for them to retire: a fifth of the marcher's loop in a scene of
+/// partial cells).
 #[derive(Clone, Copy, Debug)]
 pub struct Met {
-    /// The nearest piece at the ray's point.
-    pub near: (f64, f64),
-    /// The first piece the ray meets (infinity when it meets none before `clear`).
-    pub first: (f64, f64),
+    /// The nearest piece's distance at the ray's point, and the first piece's `t` (infinity
+    /// when it meets none before `clear`).
+    near_d: f64,
+    first_t: f64,
     /// How far the ray is known to meet no piece: at least the `limit` asked for, unless a
     /// tiled ball's crossing of its lattice gave up before (`Form::meet`).
     pub clear: f64,
+    /// The nearest piece's object, and the first piece's.
+    near_object: f64,
+    first_object: f64,
     /// Lattice cells the tiled balls' crossings went through.
     pub cells: usize,
 }
@@ -685,21 +692,36 @@ fn meet_moved(pieces: &Pieces, p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
 impl Met {
     /// Nothing met yet.
     const NONE: Met = Met {
-        near: (f64::INFINITY, 0.0),
-        first: (f64::INFINITY, 0.0),
+        near_d: f64::INFINITY,
+        first_t: f64::INFINITY,
         clear: f64::INFINITY,
+        near_object: 0.0,
+        first_object: 0.0,
         cells: 0,
     };
+
+    /// The nearest piece at the ray's point: its distance and object.
+    #[inline(always)]
+    pub fn near(&self) -> (f64, f64) {
+        (self.near_d, self.near_object)
+    }
+
+    /// The first piece the ray meets: its `t` (infinity when it meets none before `clear`)
+    /// and object.
+    #[inline(always)]
+    pub fn first(&self) -> (f64, f64) {
+        (self.first_t, self.first_object)
+    }
 
     /// A piece's meeting with the ray, after those before it (ties go to the first).
     #[inline(always)]
     fn take(&mut self, piece: &Piece, m: Meeting) {
-        if m.value < self.near.0 {
-            self.near = (m.value, piece.object);
+        if m.value < self.near_d {
+            (self.near_d, self.near_object) = (m.value, piece.object);
         }
         (self.clear, self.cells) = (self.clear.min(m.clear), self.cells + m.cells);
         match m.first {
-            Some(t) if t < self.first.0 => self.first = (t, piece.object),
+            Some(t) if t < self.first_t => (self.first_t, self.first_object) = (t, piece.object),
             _ => {}
         }
     }
@@ -708,8 +730,8 @@ impl Met {
     /// others.
     #[inline(always)]
     fn cut(mut self) -> Met {
-        if self.first.0 > self.clear {
-            self.first = (f64::INFINITY, 0.0);
+        if self.first_t > self.clear {
+            (self.first_t, self.first_object) = (f64::INFINITY, 0.0);
         }
         self
     }

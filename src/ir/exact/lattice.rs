@@ -35,6 +35,9 @@ pub struct Tiled {
     /// singular): the copy at `c` lies where `|x_i - c_i - centre_i| <= r stretch_i`.
     centre: [f64; 4],
     stretch: [f64; 4],
+    /// Whether `to`, and `m`, are the identity: a tiling that is not turned or scaled moves
+    /// coordinates only, and its products are skipped (they would be exact).
+    identity: (bool, bool),
 }
 
 /// How far a lattice coordinate's windows (`Tiled::window`) are widened against rounding, in
@@ -209,6 +212,7 @@ impl Tiled {
             r,
             centre,
             stretch,
+            identity: (to == super::IDENTITY, m == super::IDENTITY),
         }
     }
 
@@ -253,15 +257,33 @@ impl Tiled {
     /// The lattice coordinates of `p`.
     #[inline(always)]
     fn lattice(&self, p: [f64; 4]) -> [f64; 4] {
-        let q = apply(&self.to, p);
+        let q = self.times_to(p);
         std::array::from_fn(|i| q[i] + self.at[i])
+    }
+
+    /// `to v`.
+    #[inline(always)]
+    fn times_to(&self, v: [f64; 4]) -> [f64; 4] {
+        match self.identity.0 {
+            true => v,
+            false => apply(&self.to, v),
+        }
+    }
+
+    /// `m x`.
+    #[inline(always)]
+    fn times_m(&self, x: [f64; 4]) -> [f64; 4] {
+        match self.identity.1 {
+            true => x,
+            false => apply(&self.m, x),
+        }
     }
 
     /// The point relative to its copy, from its lattice coordinates relative to the copy's
     /// lattice point: small numbers, whatever the distance from the origin.
     #[inline(always)]
     fn local(&self, x: [f64; 4]) -> [f64; 4] {
-        let u = apply(&self.m, x);
+        let u = self.times_m(x);
         std::array::from_fn(|i| u[i] + self.off[i])
     }
 
@@ -286,8 +308,8 @@ impl Tiled {
     #[inline(always)]
     fn cross(&self, p: [f64; 4], d: [f64; 4], (limit, cells): (f64, usize)) -> Meeting {
         let q = self.lattice(p);
-        let w = apply(&self.to, d);
-        let (exits, along) = (self.tiling.exits(w), apply(&self.m, w));
+        let w = self.times_to(d);
+        let (exits, along) = (self.tiling.exits(w), self.times_m(w));
         let mut c = self.tiling.nearest(q);
         let mut x: [f64; 4] = std::array::from_fn(|i| q[i] - c[i]);
         let here = self.local(x);

@@ -427,7 +427,7 @@ impl Marcher {
                     // `PIECE_WORK` and `CELL_WORK` instructions of a cell's tape: the probe's
                     // model weighs the cells' march by them.
                     self.instructions += (pieces.len() * PIECE_WORK + met.cells * CELL_WORK) as u64;
-                    let (near, first) = (met.near, met.first);
+                    let (near, first) = (met.near(), met.first());
                     let step = if let Some(back) = unrelax(st, near.0.min(st.holds)) {
                         back
                     } else if near.0 < tol {
@@ -461,7 +461,8 @@ impl Marcher {
                             // its pieces are met to any length.
                             let reach = (f64::INFINITY, CELLS);
                             let met = meet(&partial.pieces, p - cell.origin, r.d, reach);
-                            (st.near, st.first) = (met.near, (st.t + met.first.0, met.first.1));
+                            let (near, first) = (met.near(), met.first());
+                            (st.near, st.first) = (near, (st.t + first.0, first.1));
                             st.leave = st.t + st.exit(cells, cell, p, r.d);
                             st.partial = here;
                             self.instructions += (partial.pieces.len() * PIECE_WORK) as u64;
