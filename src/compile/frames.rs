@@ -90,7 +90,10 @@ impl Frames {
             &compiled.bounds,
             &compiled.tiled,
             (camera.position, t),
-            self.shot.limits.epsilon,
+            (
+                self.shot.limits.epsilon,
+                build.marcher != MarcherKind::Plain,
+            ),
         );
         let cells = (build.marcher == MarcherKind::Cells).then(|| plan.build(&program.ir));
         let features = Features {
@@ -223,13 +226,14 @@ fn medium(m: &crate::scene::Material) -> Medium {
 /// limits) and objects bounded by intervals stay outside the cube, with the unbounded ones, as
 /// the cells found them before they were bounded: around a few hundred copies far apart, the
 /// cells that resolve the epsilon near each are so many that a ray passing them took more
-/// than 2,000 steps, one per cell.
+/// than 2,000 steps, one per cell. The escape proof has the unbounded objects' covers where
+/// `covers` (every marcher but the plain one, which takes no exact shortcut).
 fn regions(
     ir: &SceneIr,
     bounds: &[Option<([f64; 4], f64)>],
     tiled: &[bool],
     (camera, t): (DVec4, f64),
-    epsilon: f64,
+    (epsilon, covers): (f64, bool),
 ) -> (Escape, CellsPlan) {
     // The escape proof's box, and the cells' cube.
     let (mut lo, mut hi) = (camera, camera);
@@ -260,7 +264,13 @@ fn regions(
     }
     let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
     let scene = (ir.distance, ir.nearest);
-    let escape = Escape::new(&ir.graph, (lo, hi), &distances, (scene, ir.interior), t);
+    let escape = Escape::new(
+        &ir.graph,
+        (lo, hi),
+        &distances,
+        (scene, ir.interior),
+        (t, covers),
+    );
     let (lo, hi) = (cube_lo, cube_hi);
     let size = 2.0 * (hi - lo).max_element().max(1.0);
     let corner = (lo + hi) / 2.0 - DVec4::splat(size / 2.0);

@@ -5,6 +5,7 @@
 //! (`Escape::clear`).
 
 use crate::ir::eval;
+use crate::ir::exact::{CELLS, Form, cover};
 use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
 use glam::DVec4;
@@ -27,19 +28,27 @@ pub struct Escape {
     /// Whether no ray outside objects, and no ray inside them, can ever prove that it has
     /// left the scene (`never_clears`): `escapes` then says no without trying.
     never: [bool; 2],
+    /// Each unbounded object's cover (`ir::exact::cover`), where it has one; empty for the
+    /// plain marcher, which takes no exact shortcut.
+    covers: Vec<Option<Vec<Form>>>,
 }
 
 impl Escape {
     /// From the frame's graph: the box of its bounded objects, the distances of the others, and
     /// the scene's distance and nearest object, outside objects and inside them (`None` where
-    /// no object can be entered), at animation time `t`.
+    /// no object can be entered), at animation time `t`. With `covers`, the unbounded objects'
+    /// covers too, which `escapes` meets before it bounds their graph.
     pub fn new(
         g: &Graph,
         bounded: (DVec4, DVec4),
         unbounded: &[Id],
         (scene, interior): ((Id, Id), Option<(Id, Id)>),
-        t: f64,
+        (t, covers): (f64, bool),
     ) -> Escape {
+        let covers = match covers {
+            true => unbounded.iter().map(|&u| cover(g, u)).collect(),
+            false => vec![],
+        };
         let (graph, map) = g.rebuild(unbounded, |g, n| g.intern(n));
         let unbounded: Vec<Id> = unbounded.iter().map(|r| map[r.0 as usize]).collect();
         let never = never_clears(&graph, &unbounded);
@@ -60,6 +69,7 @@ impl Escape {
             interior: interior.map(at),
             t,
             never,
+            covers,
         }
     }
 
@@ -149,6 +159,9 @@ impl Escape {
         if entry(p, d, self.lo, self.hi).is_some() {
             return false;
         }
+        if self.met_clear(p, d, keep, proofs) {
+            return true;
+        }
         // Objects past the mask's 64 bits count only when all are out of the way.
         let mut rest = true;
         if !self.roots.is_empty() {
@@ -170,6 +183,32 @@ impl Escape {
             }
         }
         *keep == 0 && rest
+    }
+
+    /// Whether the ray from `p` along `d` meets none of the forms of any unbounded object's
+    /// cover (each from outside it, with no first meeting, and not given up): then none of
+    /// the objects, and an interval pass over their graph is not needed. Objects whose covers
+    /// it clears leave `keep`; it says yes only where that leaves none.
+    fn met_clear(&self, p: DVec4, d: DVec4, keep: &mut u64, proofs: &mut Proofs) -> bool {
+        if self.covers.is_empty() || self.roots.len() > 64 {
+            return false;
+        }
+        let (p, d) = (p.to_array(), d.to_array());
+        for (i, cover) in self.covers.iter().enumerate() {
+            let Some(forms) = cover.as_ref().filter(|_| *keep & 1 << i != 0) else {
+                continue;
+            };
+            let misses = forms.iter().all(|f| {
+                let m = f.meet(p, d, (f64::INFINITY, CELLS));
+                // Counted as nodes bounded: a form, or a lattice cell crossed, costs about one.
+                proofs.bounded += 1 + m.cells as u64;
+                m.value > 0.0 && m.first.is_none() && m.clear == f64::INFINITY
+            });
+            if misses {
+                *keep &= !(1 << i);
+            }
+        }
+        *keep == 0
     }
 
     /// Every unbounded object, as `escapes` takes them.
@@ -317,12 +356,63 @@ mod tests {
 
     /// Every object's distance as an unbounded root, as `escapes` takes them.
     fn escape_of(source: &str) -> Escape {
+        escape_with(source, false)
+    }
+
+    /// `escape_of`, with the objects' covers where `covers`.
+    fn escape_with(source: &str, covers: bool) -> Escape {
         let c = crate::Compilation::from_source("t.4ds", source);
         let scene = c.scene.expect("the test scene compiles");
         let ir = crate::compile::Compiled::new(&scene).program(Some(0.5)).ir;
         let objects: Vec<Id> = ir.objects.iter().map(|o| o.distance).collect();
         let roots = ((ir.distance, ir.nearest), ir.interior);
-        Escape::new(&ir.graph, (DVec4::ZERO, DVec4::ZERO), &objects, roots, 0.5)
+        Escape::new(
+            &ir.graph,
+            (DVec4::ZERO, DVec4::ZERO),
+            &objects,
+            roots,
+            (0.5, covers),
+        )
+    }
+
+    /// Where an unbounded object has a cover (a floor with a ball cut out of it, by its
+    /// plane; a smooth union of a floor and a ball, by both lowered by the blend), a ray that
+    /// meets none of the forms escapes on their meetings alone: no interval pass over the
+    /// graph (one node counted per form met). Rays it does not clear are left to the bounds,
+    /// which decide as they did without covers, on rays up, down, and across the ball.
+    #[test]
+    fn covers_prove_escapes_without_bounds() {
+        let shapes = [
+            "subtract(halfspace([0, 1, 0, 0], offset: 0), hypersphere(0.5))",
+            "union(halfspace([0, 1, 0, 0], offset: 0), hypersphere(0.5) \
+             |> translate([0, 2, 0, 0]), smooth: 0.3)",
+        ];
+        for shape in shapes {
+            let source = scene(&[shape]);
+            let (with, without) = (escape_with(&source, true), escape_of(&source));
+            let o = DVec4::new(3.0, 4.0, -2.0, 1.0);
+            let up = DVec4::new(0.1, 1.0, 0.2, 0.0).normalize();
+            let mut proofs = Proofs::default();
+            assert!(with.escapes(o, up, false, &mut with.unbounded(), &mut proofs));
+            assert!(
+                proofs.bounded <= 2,
+                "{shape}: {} nodes bounded",
+                proofs.bounded
+            );
+            assert!(without.escapes(o, up, false, &mut without.unbounded(), &mut proofs));
+            assert!(proofs.bounded > 2, "{shape}: the bounds were not needed");
+            for d in [-DVec4::Y, DVec4::new(0.0, -0.3, 1.0, 0.0).normalize()] {
+                let mut proofs = Proofs::default();
+                let (a, b) = (
+                    with.escapes(o, d, false, &mut with.unbounded(), &mut proofs),
+                    without.escapes(o, d, false, &mut without.unbounded(), &mut proofs),
+                );
+                assert!(
+                    !a && !b,
+                    "{shape}: a ray bound for the floor escapes ({a}, {b})"
+                );
+            }
+        }
     }
 
     fn scene(shapes: &[&str]) -> String {

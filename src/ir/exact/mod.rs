@@ -9,10 +9,12 @@
 
 mod balls;
 mod boxes;
+mod cover;
 mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
 pub use balls::{Meetings, Pieces};
+pub use cover::cover;
 pub use lattice::{CELLS, Tiled, Tiling};
 
 /// One piece of a distance, on object `object`.
