@@ -324,7 +324,9 @@ impl Tiled {
         // there, from the point it is at (not from `q`, which may be far behind: the roots
         // of a copy seen from afar have no digits left), and its times are offset by `skip`.
         let skip = (0..4).fold(0.0, |t: f64, i| t.max(self.window(i, q[i], w[i])));
-        if skip > limit {
+        // (A coordinate that stays between copies for ever meets none, whatever the limit:
+        // advanced to infinity, the crossing would run on NaN coordinates.)
+        if skip > limit || skip == f64::INFINITY {
             return meeting(None, skip, 0);
         }
         if skip > 0.0 {
@@ -375,6 +377,28 @@ mod tests {
         let (t, n) = tiling.leave(&tiling.exits([3e-4, -3e-4, 1.0, 0.0]), c, x);
         assert!(t.is_finite() && t > 0.0, "{t}");
         assert_eq!(n.iter().map(|v| v * v).sum::<f64>(), 2.0);
+    }
+
+    /// A ray that keeps a coordinate between the copies' reach for ever (here `w = 0.5`, the
+    /// balls of radius 0.2 at integer `w`) meets none of them, looking however far: at once,
+    /// crossing no cell, not after a crossing run on coordinates advanced to infinity.
+    #[test]
+    fn a_ray_between_the_copies_meets_none_at_any_length() {
+        let identity = std::array::from_fn(|i| std::array::from_fn(|j| (i == j) as u8 as f64));
+        let tiled = Tiled::new(
+            Tiling::Grid {
+                limit: [3.0, 3.0, 3.0, 3.0],
+            },
+            (identity, [0.0; 4]),
+            (identity, [0.0; 4]),
+            0.2,
+        );
+        let (p, d) = ([-10.0, 0.1, 0.0, 0.5], [1.0, 0.0, 0.0, 0.0]);
+        for limit in [10.0, f64::INFINITY] {
+            let m = tiled.meet(p, d, (limit, CELLS));
+            assert_eq!(m.first, None, "{limit}: {m:?}");
+            assert_eq!((m.clear, m.cells), (f64::INFINITY, 0), "{limit}: {m:?}");
+        }
     }
 
     /// The neighbour a ray enters is the lattice point nearest to it just past the face, and
