@@ -752,10 +752,7 @@ fn covers_hold_their_objects() {
                 let o: [f64; 4] =
                     std::array::from_fn(|a| to[a] + size * rng.random_range(-3.0..3.0));
                 let d = random_unit(&mut rng);
-                let misses = forms.iter().all(|f| {
-                    let m = f.meet(o, d, (f64::INFINITY, ir::exact::CELLS));
-                    m.value > 0.0 && m.first.is_none() && m.clear == f64::INFINITY
-                });
+                let misses = forms.iter().all(|f| f.missed(o, d).0);
                 if !misses {
                     continue;
                 }

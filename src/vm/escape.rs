@@ -5,7 +5,7 @@
 //! (`Escape::clear`).
 
 use crate::ir::eval;
-use crate::ir::exact::{CELLS, Form, cover};
+use crate::ir::exact::{Form, cover};
 use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
 use glam::DVec4;
@@ -199,10 +199,10 @@ impl Escape {
                 continue;
             };
             let misses = forms.iter().all(|f| {
-                let m = f.meet(p, d, (f64::INFINITY, CELLS));
+                let (missed, cells) = f.missed(p, d);
                 // Counted as nodes bounded: a form, or a lattice cell crossed, costs about one.
-                proofs.bounded += 1 + m.cells as u64;
-                m.value > 0.0 && m.first.is_none() && m.clear == f64::INFINITY
+                proofs.bounded += 1 + cells as u64;
+                missed
             });
             if misses {
                 *keep &= !(1 << i);

@@ -4,7 +4,7 @@
 //! object's graph. A halfspace with a ball cut out of it is covered by the halfspace, a smooth
 //! union of a sphere and a grid of spheres by both grown by the blend.
 
-use super::{Form, MAX_PIECES, min_of_forms};
+use super::{Form, MAX_PIECES, min_of_forms, offset};
 use crate::ir::{Bin, Graph, Id, Node, Un};
 
 /// Forms `f_i` with `x >= min_i f_i` everywhere, `x` the distance `id`, where the graph shows
@@ -51,11 +51,7 @@ fn below(g: &Graph, id: Id, depth: u32, out: &mut Vec<Form>) -> Option<()> {
                 }
                 Node::Un(Un::Abs, a) => below(g, a, depth + 1, out),
                 Node::Bin(op @ (Bin::Add | Bin::Sub), a, b) => {
-                    let (x, k) = match (g.constant(a), g.constant(b)) {
-                        (_, Some(k)) => (a, if op == Bin::Add { k } else { -k }),
-                        (Some(k), _) if op == Bin::Add => (b, k),
-                        _ => return None,
-                    };
+                    let (x, k) = offset(g, op, a, b)?;
                     below(g, x, depth + 1, out)?;
                     lower(&mut out[from..], -k)
                 }

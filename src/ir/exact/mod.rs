@@ -102,6 +102,15 @@ pub struct Meeting {
 }
 
 impl Form {
+    /// Whether the ray from `p` along `d` starts outside the form and never reaches its
+    /// surface, however far it goes (no lattice crossing given up), and the lattice cells
+    /// that took: an escape proof's meeting of a cover's form (`cover`).
+    pub fn missed(&self, p: [f64; 4], d: [f64; 4]) -> (bool, usize) {
+        let m = self.meet(p, d, (f64::INFINITY, CELLS));
+        let missed = m.value > 0.0 && m.first.is_none() && m.clear == f64::INFINITY;
+        (missed, m.cells)
+    }
+
     /// The distance at `p`.
     pub fn value(&self, p: [f64; 4]) -> f64 {
         match self {
@@ -452,11 +461,7 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
             }
         }
         Node::Bin(op @ (Bin::Add | Bin::Sub), a, b) => {
-            let (x, k) = match (g.constant(a), g.constant(b)) {
-                (_, Some(k)) => (a, if op == Bin::Add { k } else { -k }),
-                (Some(k), _) if op == Bin::Add => (b, k),
-                _ => return None,
-            };
+            let (x, k) = offset(g, op, a, b)?;
             let from = out.len();
             min_of_forms(g, x, neg, depth + 1, out)?;
             let k = if neg { -k } else { k };
@@ -465,6 +470,16 @@ fn min_of_forms(g: &Graph, id: Id, neg: bool, depth: u32, out: &mut Vec<Form>) -
             }
             Some(())
         }
+        _ => None,
+    }
+}
+
+/// `a op b` (`op` an addition or subtraction) as `x + k`, where one side is a constant `k`
+/// (for a subtraction, the second).
+fn offset(g: &Graph, op: Bin, a: Id, b: Id) -> Option<(Id, f64)> {
+    match (g.constant(a), g.constant(b)) {
+        (_, Some(k)) => Some((a, if op == Bin::Add { k } else { -k })),
+        (Some(k), _) if op == Bin::Add => Some((b, k)),
         _ => None,
     }
 }
