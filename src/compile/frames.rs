@@ -238,6 +238,7 @@ fn regions(
     // The escape proof's box, and the cells' cube.
     let (mut lo, mut hi) = (camera, camera);
     let (mut cube_lo, mut cube_hi) = (camera, camera);
+    let mut objects = (DVec4::INFINITY, DVec4::NEG_INFINITY);
     let (mut unbounded, mut wide) = (vec![], vec![]);
     for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
         if o.material.is_air() {
@@ -253,6 +254,7 @@ fn regions(
         match ball.or_else(|| proven_box(&ir.graph, o.distance, t)) {
             Some((l, h)) => {
                 (lo, hi) = (lo.min(l), hi.max(h));
+                objects = (objects.0.min(l), objects.1.max(h));
                 if ball.is_some() && !tiled[i] {
                     (cube_lo, cube_hi) = (cube_lo.min(l), cube_hi.max(h));
                 } else {
@@ -262,12 +264,11 @@ fn regions(
             None => unbounded.push((i, o.distance)),
         }
     }
-    let distances: Vec<_> = unbounded.iter().map(|u| u.1).collect();
     let scene = (ir.distance, ir.nearest);
     let escape = Escape::new(
         &ir.graph,
-        (lo, hi),
-        &distances,
+        ((lo, hi), objects),
+        &unbounded,
         (scene, ir.interior),
         (t, covers),
     );

@@ -5,7 +5,7 @@
 //! (`Escape::clear`).
 
 use crate::ir::eval;
-use crate::ir::exact::{Form, cover};
+use crate::ir::exact::{CELLS, Cover, Form, Reach, cover};
 use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
 use glam::DVec4;
@@ -30,25 +30,56 @@ pub struct Escape {
     never: [bool; 2],
     /// Each unbounded object's cover (`ir::exact::cover`), where it has one; empty for the
     /// plain marcher, which takes no exact shortcut.
-    covers: Vec<Option<Vec<Form>>>,
+    covers: Vec<Option<Cover>>,
+    /// Where every unbounded object is a min of forms (an exact cover): each one's index in
+    /// the scene, and the box of the bounded objects (`Escape::ahead`).
+    exact: Option<(Vec<usize>, (DVec4, DVec4))>,
+}
+
+/// Where a ray outside objects meets the unbounded objects, every one a min of forms, and
+/// where it is inside the bounded objects' box (`Escape::ahead`): beyond that box, the first
+/// meeting is where the ray meets anything.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Ahead {
+    /// Where the ray first meets an unbounded object (infinity: never), and which (its index
+    /// in the scene).
+    pub first: f64,
+    pub object: usize,
+    /// Where the ray enters the bounded objects' box and leaves it (both 0 where it never
+    /// meets the box: the box is convex, so a ray that has left it never comes back).
+    pub into: f64,
+    pub out: f64,
 }
 
 impl Escape {
-    /// From the frame's graph: the box of its bounded objects, the distances of the others, and
-    /// the scene's distance and nearest object, outside objects and inside them (`None` where
-    /// no object can be entered), at animation time `t`. With `covers`, the unbounded objects'
-    /// covers too, which `escapes` meets before it bounds their graph.
+    /// From the frame's graph: a box holding its bounded objects and the camera, and the box
+    /// of the bounded objects alone (where it holds none, `lo` above `hi`); the others (each
+    /// object's index in the scene and its distance); and the scene's distance and nearest
+    /// object, outside objects and inside them (`None` where no object can be entered), at
+    /// animation time `t`. With `covers`, the unbounded objects' covers too, which `escapes`
+    /// meets before it bounds their graph, and which `ahead` meets where every one is exact.
     pub fn new(
         g: &Graph,
-        bounded: (DVec4, DVec4),
-        unbounded: &[Id],
+        (bounded, objects): ((DVec4, DVec4), (DVec4, DVec4)),
+        unbounded: &[(usize, Id)],
         (scene, interior): ((Id, Id), Option<(Id, Id)>),
         (t, covers): (f64, bool),
     ) -> Escape {
-        let covers = match covers {
-            true => unbounded.iter().map(|&u| cover(g, u)).collect(),
+        let covers: Vec<Option<Cover>> = match covers {
+            true => unbounded.iter().map(|&(_, u)| cover(g, u)).collect(),
             false => vec![],
         };
+        // Not with a tiled ball: meeting it from afar crosses its lattice cell by cell,
+        // which the cells' march does for less (the D4 packing).
+        let exact = (!covers.is_empty()
+            && covers.len() <= 64
+            && (covers.iter()).all(|c| {
+                c.as_ref()
+                    .is_some_and(|c| c.exact && c.forms.iter().all(Form::closed))
+            }))
+        .then(|| (unbounded.iter().map(|u| u.0).collect(), objects));
+        let unbounded: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
+        let unbounded = &unbounded[..];
         let (graph, map) = g.rebuild(unbounded, |g, n| g.intern(n));
         let unbounded: Vec<Id> = unbounded.iter().map(|r| map[r.0 as usize]).collect();
         let never = never_clears(&graph, &unbounded);
@@ -70,7 +101,40 @@ impl Escape {
             t,
             never,
             covers,
+            exact,
         }
+    }
+
+    /// Where the ray from `p` along `d`, outside objects, meets the unbounded objects and the
+    /// bounded objects' box, where every unbounded object is a min of forms (`Cover::exact`),
+    /// none a tiled ball, and the ray starts outside every form: a marcher on the whole tape
+    /// then knows where the ray ends once it is past the box, or before it reaches it,
+    /// without stepping there.
+    pub fn ahead(&self, p: DVec4, d: DVec4, proofs: &mut Proofs) -> Option<Ahead> {
+        let (objects, (lo, hi)) = self.exact.as_ref()?;
+        let (into, out) = match lo.cmple(*hi).all() {
+            true => span(p, d, *lo, *hi).unwrap_or((0.0, 0.0)),
+            false => (0.0, 0.0),
+        };
+        let (pa, da) = (p.to_array(), d.to_array());
+        let (mut first, mut object) = (f64::INFINITY, 0);
+        for (cover, &o) in self.covers.iter().zip(objects) {
+            for f in &cover.as_ref()?.forms {
+                let m = f.meet(pa, da, (f64::INFINITY, CELLS));
+                proofs.bounded += 1 + m.cells as u64;
+                match m.first {
+                    _ if m.value <= 0.0 => return None,
+                    Some(t) if t < first => (first, object) = (t, o),
+                    _ => {}
+                }
+            }
+        }
+        Some(Ahead {
+            first,
+            object,
+            into,
+            out,
+        })
     }
 
     /// The scene's (for a ray inside objects, the interior, unsigned) distance at `p` in
@@ -159,8 +223,8 @@ impl Escape {
         if entry(p, d, self.lo, self.hi).is_some() {
             return false;
         }
-        if self.met_clear(p, d, keep, proofs) {
-            return true;
+        if let Some(decided) = self.met_covers(p, d, interior, keep, proofs) {
+            return decided;
         }
         // Objects past the mask's 64 bits count only when all are out of the way.
         let mut rest = true;
@@ -185,30 +249,46 @@ impl Escape {
         *keep == 0 && rest
     }
 
-    /// Whether the ray from `p` along `d` meets none of the forms of any unbounded object's
-    /// cover (each from outside it, with no first meeting, and not given up): then none of
-    /// the objects, and an interval pass over their graph is not needed. Objects whose covers
-    /// it clears leave `keep`; it says yes only where that leaves none.
-    fn met_clear(&self, p: DVec4, d: DVec4, keep: &mut u64, proofs: &mut Proofs) -> bool {
+    /// What meeting the unbounded objects' covers exactly decides, where it decides: yes where
+    /// the ray meets none of the forms of any cover (each from outside it, with no first
+    /// meeting, and not given up), then none of the objects; no where a ray outside objects
+    /// reaches a form of an exact cover (`Cover::exact`), whose object it then reaches
+    /// too. Either way an interval pass over their graph is not needed. Objects whose covers it
+    /// clears leave `keep`.
+    fn met_covers(
+        &self,
+        p: DVec4,
+        d: DVec4,
+        interior: bool,
+        keep: &mut u64,
+        proofs: &mut Proofs,
+    ) -> Option<bool> {
         if self.covers.is_empty() || self.roots.len() > 64 {
-            return false;
+            return None;
         }
         let (p, d) = (p.to_array(), d.to_array());
         for (i, cover) in self.covers.iter().enumerate() {
-            let Some(forms) = cover.as_ref().filter(|_| *keep & 1 << i != 0) else {
+            let Some(cover) = cover.as_ref().filter(|_| *keep & 1 << i != 0) else {
                 continue;
             };
-            let misses = forms.iter().all(|f| {
-                let (missed, cells) = f.missed(p, d);
+            let mut misses = true;
+            for f in &cover.forms {
+                let (reach, cells) = f.reach(p, d);
                 // Counted as nodes bounded: a form, or a lattice cell crossed, costs about one.
                 proofs.bounded += 1 + cells as u64;
-                missed
-            });
+                match reach {
+                    // Inside objects a proof needs the distance away from zero, which a form
+                    // reached does not rule out (another may hold the ray inside for ever).
+                    Reach::Reached if cover.exact && !interior => return Some(false),
+                    Reach::Missed => {}
+                    _ => misses = false,
+                }
+            }
             if misses {
                 *keep &= !(1 << i);
             }
         }
-        *keep == 0
+        (*keep == 0).then_some(true)
     }
 
     /// Every unbounded object, as `escapes` takes them.
@@ -333,6 +413,11 @@ pub fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
     if p.cmpge(lo).all() && p.cmple(hi).all() {
         return Some(0.0);
     }
+    span(p, d, lo, hi).map(|s| s.0)
+}
+
+/// Where the ray from `p` along `d` is inside the box `lo..hi` (`t >= 0`), if it ever is.
+fn span(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<(f64, f64)> {
     let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
     for a in 0..4 {
         if d[a] == 0.0 {
@@ -345,7 +430,7 @@ pub fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
         t0 = t0.max(u.min(v));
         t1 = t1.min(u.max(v));
     }
-    (t0 <= t1).then_some(t0)
+    (t0 <= t1).then_some((t0, t1))
 }
 
 #[cfg(test)]
@@ -364,11 +449,12 @@ mod tests {
         let c = crate::Compilation::from_source("t.4ds", source);
         let scene = c.scene.expect("the test scene compiles");
         let ir = crate::compile::Compiled::new(&scene).program(Some(0.5)).ir;
-        let objects: Vec<Id> = ir.objects.iter().map(|o| o.distance).collect();
+        let objects: Vec<(usize, Id)> = ir.objects.iter().map(|o| o.distance).enumerate().collect();
         let roots = ((ir.distance, ir.nearest), ir.interior);
+        let none = (DVec4::INFINITY, DVec4::NEG_INFINITY);
         Escape::new(
             &ir.graph,
-            (DVec4::ZERO, DVec4::ZERO),
+            ((DVec4::ZERO, DVec4::ZERO), none),
             &objects,
             roots,
             (0.5, covers),

@@ -62,11 +62,17 @@ pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
 #[inline(always)]
 pub fn meet(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), inside: bool) -> Option<f64> {
     let grown = half.map(|h| h + r);
-    // Most rays from outside pass far from a box: first, whether they meet the ball around
-    // its grown corners at all (a ray starting outside it that heads away, or passes wide).
+    // Most rays from outside pass far from a box: first, whether they meet a ball around it
+    // at all (a ray starting outside it that heads away, or passes wide): the ball through a
+    // sharp box's corners, and for a rounded one (the sharp box grown by a ball of radius
+    // `r`) that ball grown by `r`, which lies within the ball through its grown corners
+    // (`|half| + r <= |half + r|`, the latter `r` on every axis).
     // `w` need not be a unit vector (a row of `A` may be zero), and the ray's offset from the
     // centre is taken apart from its start, not as `|u|^2 - b^2`, which cancels far away.
-    let rr = dot(grown, grown);
+    let rr = match r > 0.0 {
+        true => (dot(half, half).sqrt() + r).powi(2),
+        false => dot(grown, grown),
+    };
     if !inside && dot(u, u) > rr {
         let b = dot(u, w);
         let s = b / dot(w, w);

@@ -7,17 +7,33 @@
 use super::{Form, MAX_PIECES, min_of_forms, offset};
 use crate::ir::{Bin, Graph, Id, Node, Un};
 
+/// Forms below an object's distance (`cover`).
+#[derive(Clone, Debug)]
+pub struct Cover {
+    pub forms: Vec<Form>,
+    /// Whether the distance is the least of the forms (`min_of_forms`), not only at least it:
+    /// a ray from outside that reaches a form's surface then reaches the object's.
+    pub exact: bool,
+}
+
 /// Forms `f_i` with `x >= min_i f_i` everywhere, `x` the distance `id`, where the graph shows
-/// some: its own forms where it is a min of them (`min_of_forms`); either operand's of an
-/// intersection (`max(a, b) >= a`, and a smooth one is at least the plain one); both
-/// operands' of a union, a smooth one's lowered by a quarter of its blend width (`smin(a, b,
-/// k) >= min(a, b) - k / 4`); a shell's surface's (`|x| >= x`); and a form's moved by a
-/// constant added. None where a part is none of these (a complement, a product, a custom
-/// field's own arithmetic) or more than `MAX_PIECES` forms.
-pub fn cover(g: &Graph, id: Id) -> Option<Vec<Form>> {
-    let mut out = vec![];
-    below(g, id, 0, &mut out)?;
-    Some(out)
+/// some: its own forms where it is a min of them (`min_of_forms`, an exact cover); either
+/// operand's of an intersection (`max(a, b) >= a`, and a smooth one is at least the plain
+/// one); both operands' of a union, a smooth one's lowered by a quarter of its blend width
+/// (`smin(a, b, k) >= min(a, b) - k / 4`); a shell's surface's (`|x| >= x`); and a form's
+/// moved by a constant added. None where a part is none of these (a complement, a product, a
+/// custom field's own arithmetic) or more than `MAX_PIECES` forms.
+pub fn cover(g: &Graph, id: Id) -> Option<Cover> {
+    let mut forms = vec![];
+    if min_of_forms(g, id, false, 0, &mut forms).is_some() && forms.len() <= MAX_PIECES {
+        return Some(Cover { forms, exact: true });
+    }
+    forms.clear();
+    below(g, id, 0, &mut forms)?;
+    Some(Cover {
+        forms,
+        exact: false,
+    })
 }
 
 /// `cover` of `id`, appended to `out` (left as it was where there is none).
@@ -113,7 +129,7 @@ mod tests {
     use super::*;
 
     /// Each object's cover in a one-object scene.
-    fn cover_of(shape: &str) -> Option<Vec<Form>> {
+    fn cover_of(shape: &str) -> Option<Cover> {
         let source = format!("object o {{ shape = {shape} }}");
         let scene = crate::Compilation::from_source("t.4ds", &source)
             .scene
@@ -135,7 +151,7 @@ mod tests {
             "sdf |p| max(p.y - 0.5, sqrt(p.x))",
             "sdf |p| max(-1 - p.z * p.z, max(p.x * p.x, p.y - 0.5))",
         ] {
-            let forms = cover_of(shape).expect("a cover");
+            let forms = cover_of(shape).expect("a cover").forms;
             assert_eq!(forms.len(), 1, "{shape}: {forms:?}");
             assert!(matches!(forms[0], Form::Plane { .. }), "{shape}: {forms:?}");
         }

@@ -14,7 +14,7 @@ mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
 pub use balls::{Meetings, Pieces};
-pub use cover::cover;
+pub use cover::{Cover, cover};
 pub use lattice::{CELLS, Tiled, Tiling};
 
 /// One piece of a distance, on object `object`.
@@ -88,6 +88,17 @@ fn dot(a: [f64; 4], b: [f64; 4]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 }
 
+/// How a ray goes with a form (`Form::reach`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Reach {
+    /// It starts outside the form and never reaches its surface.
+    Missed,
+    /// It starts inside the form or on it, or reaches its surface.
+    Reached,
+    /// A lattice crossing was given up before either showed.
+    Unknown,
+}
+
 /// What a ray meets of a form (`Form::meet`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Meeting {
@@ -102,13 +113,19 @@ pub struct Meeting {
 }
 
 impl Form {
-    /// Whether the ray from `p` along `d` starts outside the form and never reaches its
-    /// surface, however far it goes (no lattice crossing given up), and the lattice cells
-    /// that took: an escape proof's meeting of a cover's form (`cover`).
-    pub fn missed(&self, p: [f64; 4], d: [f64; 4]) -> (bool, usize) {
+    /// Whether the ray from `p` along `d`, however far it goes, misses the form or reaches
+    /// it, and the lattice cells that took: an escape proof's meeting of a cover's form
+    /// (`cover`).
+    pub fn reach(&self, p: [f64; 4], d: [f64; 4]) -> (Reach, usize) {
         let m = self.meet(p, d, (f64::INFINITY, CELLS));
-        let missed = m.value > 0.0 && m.first.is_none() && m.clear == f64::INFINITY;
-        (missed, m.cells)
+        let reach = if m.value <= 0.0 || m.first.is_some() {
+            Reach::Reached
+        } else if m.clear == f64::INFINITY {
+            Reach::Missed
+        } else {
+            Reach::Unknown
+        };
+        (reach, m.cells)
     }
 
     /// The distance at `p`.
@@ -134,7 +151,7 @@ impl Form {
 
     /// Whether `meet` always finds the first point or says there is none: not for a tiled
     /// ball, whose crossing of its lattice may give up.
-    fn closed(&self) -> bool {
+    pub fn closed(&self) -> bool {
         match self {
             Form::Abs { f, .. } => f.closed(),
             Form::Lattice(_) => false,

@@ -25,7 +25,7 @@ mod plain;
 use crate::ir::exact::CELLS;
 use crate::vm::Tape;
 use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
-use crate::vm::escape::{Escape, Proofs};
+use crate::vm::escape::{Ahead, Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
 use std::collections::HashMap;
@@ -167,6 +167,9 @@ pub(super) struct State {
     leap_at: u32,
     wait: u32,
     last: (f64, f64),
+    /// On the whole tape, where the ray meets the exact unbounded objects and the bounded
+    /// objects' box (`Escape::ahead`), where every unbounded object is exact.
+    ahead: Option<Ahead>,
 }
 
 impl State {

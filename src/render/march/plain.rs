@@ -12,7 +12,7 @@ use super::{
     Field, Hit, Limits, Marcher, Ray, State, Step, approach, careful, crawl, finish, retry, unrelax,
 };
 use crate::vm::cells::epsilon_at;
-use crate::vm::escape::Proofs;
+use crate::vm::escape::{Ahead, Proofs};
 
 impl Marcher {
     pub(super) fn march_whole(
@@ -30,10 +30,25 @@ impl Marcher {
             self.active.clear();
             (self.active)
                 .extend((0..rays.len() as u32).filter(|&i| rays[i as usize].interior == interior));
-            // Rays proven clear of every object from where they start leave for the sky.
+            // Rays proven clear of every object from where they start leave for the sky, and
+            // rays that meet an exact unbounded object before the bounded objects' box, or
+            // never reach that box, end there.
             self.active.retain(|&i| {
-                let k = i as usize;
-                !escapes(field, &rays[k], &mut self.state[k], &mut self.proofs)
+                let (k, r) = (i as usize, &rays[i as usize]);
+                let st = &mut self.state[k];
+                if escapes(field, r, st, &mut self.proofs) {
+                    return false;
+                }
+                if !interior {
+                    st.ahead = field.escape.ahead(r.o, r.d, &mut self.proofs);
+                }
+                match st.ahead {
+                    Some(a) if a.first <= a.into || a.out == 0.0 => {
+                        hits[k] = ahead(r, a);
+                        false
+                    }
+                    _ => true,
+                }
             });
             while !self.active.is_empty() {
                 self.next.clear();
@@ -95,10 +110,19 @@ impl Marcher {
                         Step::Advance(step)
                     };
                     finish(st, &mut self.next, k, r, step, limits, hits);
-                    // Rays proven clear of every object from here on leave for the sky.
-                    if self.next.last() == Some(&i) && escapes(field, r, st, &mut self.proofs) {
-                        self.next.pop();
-                        hits[k] = Hit::Beyond;
+                    if self.next.last() == Some(&i) {
+                        // Past the bounded objects' box, where the ray meets the exact
+                        // unbounded ones is where it ends (the box is convex: it never
+                        // comes back).
+                        let clear = st.t - (st.step - st.radius).max(0.0);
+                        if let Some(a) = st.ahead.filter(|a| clear >= a.out) {
+                            self.next.pop();
+                            hits[k] = ahead(r, a);
+                        // Rays proven clear of every object from here on leave for the sky.
+                        } else if escapes(field, r, st, &mut self.proofs) {
+                            self.next.pop();
+                            hits[k] = Hit::Beyond;
+                        }
                     }
                 }
                 std::mem::swap(&mut self.active, &mut self.next);
@@ -117,4 +141,16 @@ fn escapes(field: Field, r: &Ray, st: &mut State, proofs: &mut Proofs) -> bool {
     st.escape_at = retry(st.t);
     let clear = st.t - (st.step - st.radius).max(0.0);
     (field.escape).escapes(r.o + r.d * clear, r.d, r.interior, &mut st.keep, proofs)
+}
+
+/// The end of a ray that meets nothing but exact unbounded objects from where it is
+/// (`Escape::ahead`).
+fn ahead(r: &Ray, a: Ahead) -> Hit {
+    match a.first < r.tmax {
+        true => Hit::Surface {
+            t: a.first,
+            object: a.object,
+        },
+        false => Hit::Beyond,
+    }
 }
