@@ -5,7 +5,7 @@
 //! (`Escape::clear`).
 
 use crate::ir::eval;
-use crate::ir::exact::{CELLS, Cover, Form, Reach, cover};
+use crate::ir::exact::{Cover, Form, Reach, cover};
 use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
 use glam::DVec4;
@@ -31,24 +31,36 @@ pub struct Escape {
     /// Each unbounded object's cover (`ir::exact::cover`), where it has one; empty for the
     /// plain marcher, which takes no exact shortcut.
     covers: Vec<Option<Cover>>,
-    /// Where every unbounded object is a min of forms (an exact cover): each one's index in
-    /// the scene, and the box of the bounded objects (`Escape::ahead`).
-    exact: Option<(Vec<usize>, (DVec4, DVec4))>,
+    /// Where every unbounded object is a min of forms (an exact cover), what `ahead` meets.
+    exact: Option<Exact>,
 }
 
-/// Where a ray outside objects meets the unbounded objects, every one a min of forms, and
-/// where it is inside the bounded objects' box (`Escape::ahead`): beyond that box, the first
-/// meeting is where the ray meets anything.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ahead {
-    /// Where the ray first meets an unbounded object (infinity: never), and which (its index
-    /// in the scene).
-    pub first: f64,
-    pub object: usize,
-    /// Where the ray enters the bounded objects' box and leaves it (both 0 where it never
-    /// meets the box: the box is convex, so a ray that has left it never comes back).
-    pub into: f64,
-    pub out: f64,
+/// The exact unbounded objects (`Escape::ahead`): every form with its object's index in the
+/// scene, and the box of the bounded objects.
+struct Exact {
+    forms: Vec<(Form, usize)>,
+    objects: (DVec4, DVec4),
+}
+
+/// What the exact unbounded objects say of a ray outside objects (`Escape::ahead`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum Ahead {
+    /// Nothing: some unbounded object is no min of closed forms (or the marcher takes no
+    /// covers), or the ray starts inside a form.
+    #[default]
+    Unknown,
+    /// The ray starts inside the bounded objects' box: they say more once it has left.
+    Inside,
+    /// The ray first meets an unbounded object at `first` (infinity: never), `object` (its
+    /// index in the scene), and is inside the bounded objects' box from `into` to `out`
+    /// (both 0 where it never is). Beyond the box (which is convex: a ray that has left it
+    /// never comes back) the first meeting is where the ray ends.
+    Meets {
+        first: f64,
+        object: usize,
+        into: f64,
+        out: f64,
+    },
 }
 
 impl Escape {
@@ -77,7 +89,12 @@ impl Escape {
                 c.as_ref()
                     .is_some_and(|c| c.exact && c.forms.iter().all(Form::closed))
             }))
-        .then(|| (unbounded.iter().map(|u| u.0).collect(), objects));
+        .then(|| {
+            let forms = (covers.iter().flatten().zip(unbounded))
+                .flat_map(|(c, u)| c.forms.iter().map(|f| (f.clone(), u.0)))
+                .collect();
+            Exact { forms, objects }
+        });
         let unbounded: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
         let unbounded = &unbounded[..];
         let (graph, map) = g.rebuild(unbounded, |g, n| g.intern(n));
@@ -107,34 +124,44 @@ impl Escape {
 
     /// Where the ray from `p` along `d`, outside objects, meets the unbounded objects and the
     /// bounded objects' box, where every unbounded object is a min of forms (`Cover::exact`),
-    /// none a tiled ball, and the ray starts outside every form: a marcher on the whole tape
-    /// then knows where the ray ends once it is past the box, or before it reaches it,
-    /// without stepping there.
-    pub fn ahead(&self, p: DVec4, d: DVec4, proofs: &mut Proofs) -> Option<Ahead> {
-        let (objects, (lo, hi)) = self.exact.as_ref()?;
+    /// none a tiled ball, and the ray starts outside every form and outside the box: a
+    /// marcher on the whole tape then knows where the ray ends once it is past the box, or
+    /// before it reaches it, without stepping there. Inside the box (where most rays that
+    /// left a bounded object start, and end on another) nothing is met yet.
+    pub fn ahead(&self, p: DVec4, d: DVec4, proofs: &mut Proofs) -> Ahead {
+        let Some(Exact {
+            forms,
+            objects: (lo, hi),
+        }) = self.exact.as_ref()
+        else {
+            return Ahead::Unknown;
+        };
+        if p.cmpge(*lo).all() && p.cmple(*hi).all() {
+            return Ahead::Inside;
+        }
+        let (pa, da) = (p.to_array(), d.to_array());
+        let (mut first, mut object) = (f64::INFINITY, 0);
+        for (f, o) in forms {
+            // No lattice: nothing to cross.
+            let m = f.meet(pa, da, (f64::INFINITY, 0));
+            proofs.bounded += 1;
+            match m.first {
+                _ if m.value <= 0.0 => return Ahead::Unknown,
+                Some(t) if t < first => (first, object) = (t, *o),
+                _ => {}
+            }
+        }
+        // (An empty box, `lo` above `hi`, is met by no ray.)
         let (into, out) = match lo.cmple(*hi).all() {
             true => span(p, d, *lo, *hi).unwrap_or((0.0, 0.0)),
             false => (0.0, 0.0),
         };
-        let (pa, da) = (p.to_array(), d.to_array());
-        let (mut first, mut object) = (f64::INFINITY, 0);
-        for (cover, &o) in self.covers.iter().zip(objects) {
-            for f in &cover.as_ref()?.forms {
-                let m = f.meet(pa, da, (f64::INFINITY, CELLS));
-                proofs.bounded += 1 + m.cells as u64;
-                match m.first {
-                    _ if m.value <= 0.0 => return None,
-                    Some(t) if t < first => (first, object) = (t, o),
-                    _ => {}
-                }
-            }
-        }
-        Some(Ahead {
+        Ahead::Meets {
             first,
             object,
             into,
             out,
-        })
+        }
     }
 
     /// The scene's (for a ray inside objects, the interior, unsigned) distance at `p` in
@@ -426,7 +453,9 @@ fn span(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<(f64, f64)> {
             }
             continue;
         }
-        let (u, v) = ((lo[a] - p[a]) / d[a], (hi[a] - p[a]) / d[a]);
+        // One division an axis: the products are within an ulp of the quotients.
+        let inv = 1.0 / d[a];
+        let (u, v) = ((lo[a] - p[a]) * inv, (hi[a] - p[a]) * inv);
         t0 = t0.max(u.min(v));
         t1 = t1.min(u.max(v));
     }
@@ -499,6 +528,68 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// A floor (an exact unbounded object) below a ball (bounded, in the box `(-1, 1, -1, -1)
+    /// ..(1, 3, 1, 1)`): `ahead` meets the floor exactly and spans the box, for rays that miss
+    /// the box and rays through it, and waits for a ray inside the box to leave it; it says
+    /// nothing for a ray starting inside the floor, for the plain marcher (no covers), or
+    /// where an unbounded object is no min of forms (the floor with a hole).
+    #[test]
+    fn rays_meet_exact_unbounded_objects_ahead() {
+        let ball = "hypersphere(1) |> translate([0, 2, 0, 0])";
+        let of = |floor: &str, covers: bool| {
+            let c = crate::Compilation::from_source("t.4ds", &scene(&[floor, ball]));
+            let scene = c.scene.expect("the test scene compiles");
+            let ir = crate::compile::Compiled::new(&scene).program(Some(0.5)).ir;
+            let boxed = (
+                DVec4::new(-1.0, 1.0, -1.0, -1.0),
+                DVec4::new(1.0, 3.0, 1.0, 1.0),
+            );
+            let camera = DVec4::new(0.0, 0.0, -6.0, 0.0);
+            Escape::new(
+                &ir.graph,
+                ((boxed.0.min(camera), boxed.1.max(camera)), boxed),
+                &[(0, ir.objects[0].distance)],
+                ((ir.distance, ir.nearest), ir.interior),
+                (0.5, covers),
+            )
+        };
+        let floor = "halfspace([0, 1, 0, 0], offset: 0)";
+        let e = of(floor, true);
+        let mut proofs = Proofs::default();
+        let down = -DVec4::Y;
+        let meets = |first, into, out| Ahead::Meets {
+            first,
+            object: 0,
+            into,
+            out,
+        };
+        let beside = e.ahead(DVec4::new(3.0, 4.0, -2.0, 1.0), down, &mut proofs);
+        assert_eq!(beside, meets(4.0, 0.0, 0.0));
+        let slant = DVec4::new(1.0, -2.0, 0.0, 0.0).normalize();
+        // Into the box where x reaches -1, out where y reaches 1; the floor at y = 0.
+        let through = e.ahead(DVec4::new(-1.5, 4.0, 0.0, 0.0), slant, &mut proofs);
+        let close = |x: f64, want: f64| (x - want * 5f64.sqrt()).abs() < 1e-12;
+        assert!(
+            matches!(through, Ahead::Meets { first, into, out, .. }
+                if close(into, 0.5) && close(out, 1.5) && close(first, 2.0)),
+            "{through:?}"
+        );
+        let inside = DVec4::new(0.0, 1.5, 0.0, 0.5);
+        assert_eq!(e.ahead(inside, down, &mut proofs), Ahead::Inside);
+        let under = DVec4::new(3.0, -1.0, 0.0, 0.0);
+        assert_eq!(e.ahead(under, DVec4::Y, &mut proofs), Ahead::Unknown);
+        let above = DVec4::new(3.0, 4.0, 0.0, 0.0);
+        assert_eq!(
+            of(floor, false).ahead(above, down, &mut proofs),
+            Ahead::Unknown
+        );
+        let holed = "subtract(halfspace([0, 1, 0, 0], offset: 0), hypersphere(0.5))";
+        assert_eq!(
+            of(holed, true).ahead(above, down, &mut proofs),
+            Ahead::Unknown
+        );
     }
 
     fn scene(shapes: &[&str]) -> String {

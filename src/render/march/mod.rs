@@ -167,9 +167,8 @@ pub(super) struct State {
     leap_at: u32,
     wait: u32,
     last: (f64, f64),
-    /// On the whole tape, where the ray meets the exact unbounded objects and the bounded
-    /// objects' box (`Escape::ahead`), where every unbounded object is exact.
-    ahead: Option<Ahead>,
+    /// On the whole tape, what the exact unbounded objects say of the ray (`Escape::ahead`).
+    ahead: Ahead,
 }
 
 impl State {

@@ -36,19 +36,18 @@ impl Marcher {
             self.active.retain(|&i| {
                 let (k, r) = (i as usize, &rays[i as usize]);
                 let st = &mut self.state[k];
-                if escapes(field, r, st, &mut self.proofs) {
-                    return false;
-                }
                 if !interior {
-                    st.ahead = field.escape.ahead(r.o, r.d, &mut self.proofs);
-                }
-                match st.ahead {
-                    Some(a) if a.first <= a.into || a.out == 0.0 => {
-                        hits[k] = ahead(r, a);
-                        false
+                    match look(field, r, 0.0, &mut self.proofs) {
+                        Ok(end) => {
+                            hits[k] = end;
+                            return false;
+                        }
+                        Err(ahead) => st.ahead = ahead,
                     }
-                    _ => true,
                 }
+                // Where they decide once the ray has left the box, no escape proof can
+                // before.
+                st.ahead != Ahead::Unknown || !escapes(field, r, st, &mut self.proofs)
             });
             while !self.active.is_empty() {
                 self.next.clear();
@@ -115,13 +114,20 @@ impl Marcher {
                         // unbounded ones is where it ends (the box is convex: it never
                         // comes back).
                         let clear = st.t - (st.step - st.radius).max(0.0);
-                        if let Some(a) = st.ahead.filter(|a| clear >= a.out) {
+                        let end = match st.ahead {
+                            Ahead::Meets { out, .. } if clear < out => None,
+                            Ahead::Meets { first, object, .. } => Some(end(r, first, object)),
+                            Ahead::Inside => look(field, r, clear, &mut self.proofs)
+                                .map_err(|ahead| st.ahead = ahead)
+                                .ok(),
+                            // Rays proven clear of every object from here on leave for the sky.
+                            Ahead::Unknown => {
+                                escapes(field, r, st, &mut self.proofs).then_some(Hit::Beyond)
+                            }
+                        };
+                        if let Some(end) = end {
                             self.next.pop();
-                            hits[k] = ahead(r, a);
-                        // Rays proven clear of every object from here on leave for the sky.
-                        } else if escapes(field, r, st, &mut self.proofs) {
-                            self.next.pop();
-                            hits[k] = Hit::Beyond;
+                            hits[k] = end;
                         }
                     }
                 }
@@ -143,14 +149,36 @@ fn escapes(field: Field, r: &Ray, st: &mut State, proofs: &mut Proofs) -> bool {
     (field.escape).escapes(r.o + r.d * clear, r.d, r.interior, &mut st.keep, proofs)
 }
 
-/// The end of a ray that meets nothing but exact unbounded objects from where it is
-/// (`Escape::ahead`).
-fn ahead(r: &Ray, a: Ahead) -> Hit {
-    match a.first < r.tmax {
-        true => Hit::Surface {
-            t: a.first,
-            object: a.object,
-        },
+/// Where the exact unbounded objects end the ray from `t` along it (`Escape::ahead`): where
+/// it meets them, if it does before the bounded objects' box or never meets that box; else
+/// what they say, along the whole ray.
+fn look(field: Field, r: &Ray, t: f64, proofs: &mut Proofs) -> Result<Hit, Ahead> {
+    match field.escape.ahead(r.o + r.d * t, r.d, proofs) {
+        Ahead::Meets {
+            first,
+            object,
+            into,
+            out,
+        } if first <= into || out == 0.0 => Ok(end(r, t + first, object)),
+        Ahead::Meets {
+            first,
+            object,
+            into,
+            out,
+        } => Err(Ahead::Meets {
+            first: t + first,
+            object,
+            into: t + into,
+            out: t + out,
+        }),
+        other => Err(other),
+    }
+}
+
+/// The end of a ray whose first meeting is `object` at `t` (infinity: none), if before `tmax`.
+fn end(r: &Ray, t: f64, object: usize) -> Hit {
+    match t < r.tmax {
+        true => Hit::Surface { t, object },
         false => Hit::Beyond,
     }
 }
