@@ -13,7 +13,6 @@
 use super::camera::FrameCamera;
 use super::frame::FrameObject;
 use super::march::{Field, Hit, Limits, Marcher, Ray};
-use crate::vm::cells::epsilon_at;
 use crate::vm::{Dual, LANES, Regs};
 use glam::DVec4;
 
@@ -553,7 +552,7 @@ fn generations(
         }
         all.extend_from_slice(&rays);
         if generation < BOUNCES {
-            rays = bounce(&rays, &found, sight.objects, &mut grad, limits);
+            rays = bounce(&rays, &found, (sight.objects, field), &mut grad, limits);
         }
     }
     Ok((work, all))
@@ -591,13 +590,15 @@ fn march(
     }
 }
 
-/// The mirror bounces of the rays that hit a surface, from just off it on the ray's side. The
-/// normals are evaluated `LANES` hits of one object at a time (one at a time, they were most
-/// of a small frame's probe).
+/// The mirror bounces of the rays that hit a surface, from just off it on the ray's side, as
+/// far off as the render's paths leave a hit marched through `field`: by the hit's cell's
+/// epsilon, or on the whole tape by the epsilon (`integrator::shade`). The normals are
+/// evaluated `LANES` hits of one object at a time (one at a time, they were most of a small
+/// frame's probe).
 fn bounce(
     rays: &[Ray],
     hits: &[Hit],
-    objects: &[FrameObject],
+    (objects, field): (&[FrameObject], Field),
     grad: &mut Regs<Dual, LANES>,
     limits: Limits,
 ) -> Vec<Ray> {
@@ -623,14 +624,21 @@ fn bounce(
         }
     }
     let mut out = vec![];
+    let mut path = field.cells.map(|c| c.path());
     for (&(_, r, p), n) in met.iter().zip(normals) {
         // Facing the ray, whichever side of the surface it came from.
         let n = if n.dot(r.d) > 0.0 { -n } else { n };
         if n == DVec4::ZERO {
             continue;
         }
+        let eps = match (field.cells, &mut path) {
+            (Some(cells), Some(path)) => {
+                (cells.locate(path, p)).epsilon(p, limits.epsilon, r.interior)
+            }
+            _ => limits.epsilon,
+        };
         out.push(Ray {
-            o: p + n * (4.0 * epsilon_at(p, limits.epsilon)),
+            o: p + n * (4.0 * eps),
             d: (r.d - 2.0 * r.d.dot(n) * n).normalize(),
             tmax: f64::INFINITY,
             // A mirror bounce stays on the side the ray came from.

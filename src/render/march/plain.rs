@@ -32,7 +32,7 @@ impl Marcher {
                 .extend((0..rays.len() as u32).filter(|&i| rays[i as usize].interior == interior));
             // Rays proven clear of every object from where they start leave for the sky, and
             // rays that meet an exact unbounded object before the bounded objects' box, or
-            // never reach that box, end there.
+            // never reach that box, end there; the others that will reach it start there.
             self.active.retain(|&i| {
                 let (k, r) = (i as usize, &rays[i as usize]);
                 let st = &mut self.state[k];
@@ -42,7 +42,18 @@ impl Marcher {
                             hits[k] = end;
                             return false;
                         }
-                        Err(ahead) => st.ahead = ahead,
+                        // Nothing lies before the bounded objects' box: the ray starts there
+                        // (a shadow ray from far along a floor, a camera far from them).
+                        Err(Ahead::Meets { into, .. }) if into >= r.tmax => {
+                            hits[k] = Hit::Beyond;
+                            return false;
+                        }
+                        Err(ahead) => {
+                            if let Ahead::Meets { into, .. } = ahead {
+                                st.t = into;
+                            }
+                            st.ahead = ahead;
+                        }
                     }
                 }
                 // Where they decide once the ray has left the box, no escape proof can
