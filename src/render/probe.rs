@@ -358,11 +358,14 @@ impl Probe {
         }
     }
 
-    /// On the whole tape: relaxed steps, unless plain ones cost less and crawl no more.
+    /// On the whole tape: relaxed steps, unless plain ones cost no more and crawl no more.
+    /// Where the probe's rays meet nothing (small objects between its columns) the two cost
+    /// the same, and the frame marches as plain does: a relaxed step's bookkeeping cost
+    /// generated scenes of that kind 1 to 8% over plain.
     fn steps(&self) -> Choice {
         match self.plain {
             Some(p)
-                if p.cost(&WHOLE) < self.whole.cost(&WHOLE)
+                if p.cost(&WHOLE) <= self.whole.cost(&WHOLE)
                     && p.strained <= self.whole.strained =>
             {
                 Choice::PlainSteps
