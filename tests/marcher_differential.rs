@@ -256,10 +256,11 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
         let p = r.o + r.d * t;
         // Off the surface as the integrator leaves it: by the epsilon of the cell where the
         // hit's distance was evaluated (the cube's outside, far from every cell's origin, has
-        // a coarser one than a cell near the camera).
+        // a coarser one than a cell near the camera), or on the whole tape, whose hits settle
+        // in `f64`, by the epsilon itself.
         let eps = match &fs.cells {
             Some(cells) => cells.find(p).epsilon(p, limits.epsilon, false),
-            None => epsilon_at(p, limits.epsilon),
+            None => limits.epsilon,
         };
         let n = truth.normal(p, eps);
         if n == DVec4::ZERO {

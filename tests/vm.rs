@@ -757,7 +757,7 @@ fn covers_hold_their_objects() {
                 if cover.exact && reach.contains(&Reach::Reached) {
                     reached += 1;
                     // Where the ray starts outside the object, it reaches it where it first
-                    // reaches a form.
+                    // reaches a form: the distance is zero there, and positive before.
                     let first = (cover.forms.iter())
                         .filter_map(|f| f.meet(o, d, (f64::INFINITY, ir::exact::CELLS)).first)
                         .fold(f64::INFINITY, f64::min);
@@ -766,12 +766,24 @@ fn covers_hold_their_objects() {
                         eval.run(&vars(p, [0.0; 4], 0.0));
                         eval.value(id)
                     };
-                    let x = at(0.0).min(at(first));
-                    assert!(
-                        x < 1e-9 * size,
-                        "{source}\nobject {id:?}: distance {x} where the ray ({o:?} along \
-                         {d:?}) reaches its exact cover, at t = {first}"
-                    );
+                    let tol = 1e-9 * size;
+                    if at(0.0) > tol {
+                        let x = at(first);
+                        assert!(
+                            x.abs() < tol,
+                            "{source}\nobject {id:?}: distance {x} where the ray ({o:?} along \
+                             {d:?}) first reaches its exact cover, at t = {first}"
+                        );
+                        for k in 1..20 {
+                            let t = first * k as f64 / 20.0;
+                            let x = at(t);
+                            assert!(
+                                x > -tol,
+                                "{source}\nobject {id:?}: distance {x} at t = {t}, before the \
+                                 ray ({o:?} along {d:?}) reaches its exact cover at {first}"
+                            );
+                        }
+                    }
                 }
                 if reach.iter().any(|r| *r != Reach::Missed) {
                     continue;
