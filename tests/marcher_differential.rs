@@ -191,6 +191,17 @@ fn check(
                     && t > first + 2.0 * tol
                 {
                     fault(format!("hit at t = {t:.6e}, past a surface at {first:.6e}"));
+                } else if whole
+                    && !r.interior
+                    && d > 2.0 * eps
+                    && first.is_ok_and(|f| f.is_none_or(|f| t < f - 2.0 * tol))
+                {
+                    // The whole tape's hits settle within the epsilon in `f64`: one well
+                    // short of the surface is a ray that stopped early (a path that hit
+                    // the surface it was leaving, four epsilons off it).
+                    fault(format!(
+                        "hit at t = {t:.6e}, {d:.3e} short of a surface at {first:?}"
+                    ));
                 }
             }
             Hit::Beyond => {
