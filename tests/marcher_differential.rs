@@ -25,7 +25,7 @@ use hyperslice::ir::eval::{Reference, vars};
 use hyperslice::ir::{Id, SceneIr};
 use hyperslice::render::frame::{Build, FrameScene};
 use hyperslice::render::march::{Hit, Limits, Marcher, MarcherKind, Ray};
-use hyperslice::vm::cells::epsilon_at;
+use hyperslice::vm::cells::{epsilon_at, hit_epsilon};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::fmt::Write;
@@ -265,14 +265,10 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
             continue;
         };
         let p = r.o + r.d * t;
-        // Off the surface as the integrator leaves it: by the epsilon of the cell where the
-        // hit's distance was evaluated (the cube's outside, far from every cell's origin, has
-        // a coarser one than a cell near the camera), or on the whole tape, whose hits settle
-        // in `f64`, by the epsilon itself.
-        let eps = match &fs.cells {
-            Some(cells) => cells.find(p).epsilon(p, limits.epsilon, false),
-            None => limits.epsilon,
-        };
+        // Off the surface as the integrator leaves it (the cube's outside, far from every
+        // cell's origin, has a coarser epsilon than a cell near the camera).
+        let cell = fs.cells.as_ref().map(|cells| cells.find(p));
+        let eps = hit_epsilon(cell, p, limits.epsilon, false);
         let n = truth.normal(p, eps);
         if n == DVec4::ZERO {
             continue;

@@ -235,10 +235,9 @@ fn regions(
     (camera, t): (DVec4, f64),
     (epsilon, covers): (f64, bool),
 ) -> (Escape, CellsPlan) {
-    // The escape proof's box, and the cells' cube.
-    let (mut lo, mut hi) = (camera, camera);
-    let (mut cube_lo, mut cube_hi) = (camera, camera);
+    // The bounded objects' box, and the cells' cube.
     let mut objects = (DVec4::INFINITY, DVec4::NEG_INFINITY);
+    let (mut cube_lo, mut cube_hi) = (camera, camera);
     let (mut unbounded, mut wide) = (vec![], vec![]);
     for (i, (o, b)) in ir.objects.iter().zip(bounds).enumerate() {
         if o.material.is_air() {
@@ -253,7 +252,6 @@ fn regions(
         };
         match ball.or_else(|| proven_box(&ir.graph, o.distance, t)) {
             Some((l, h)) => {
-                (lo, hi) = (lo.min(l), hi.max(h));
                 objects = (objects.0.min(l), objects.1.max(h));
                 if ball.is_some() && !tiled[i] {
                     (cube_lo, cube_hi) = (cube_lo.min(l), cube_hi.max(h));
@@ -265,9 +263,11 @@ fn regions(
         }
     }
     let scene = (ir.distance, ir.nearest);
+    // The escape proof's box holds the camera too.
+    let around = (objects.0.min(camera), objects.1.max(camera));
     let escape = Escape::new(
         &ir.graph,
-        ((lo, hi), objects),
+        (around, objects),
         &unbounded,
         (scene, ir.interior),
         (t, covers),

@@ -33,7 +33,7 @@ use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::film::PixelSums;
-use crate::vm::cells::{Cell, Cells};
+use crate::vm::cells::{Cell, Cells, hit_epsilon};
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
 
@@ -758,17 +758,9 @@ fn shade(
     shadows: &mut Shadows,
     pixel: &mut PixelSums,
 ) -> bool {
-    // The hit's precision is that of its cell, where its distance was evaluated (on the
-    // interior tape, for a ray inside an object), not of its distance from the origin. On
-    // the whole tape it is the epsilon's: hits the tape's `f32` cannot resolve settle in
-    // `f64` (`march::approach`, and `careful` inside objects), and so do the next segment's
-    // first steps. Stepping off by the tape's rounding instead lifted a floor's paths 0.27
-    // off it at 1e5 from the origin, and its light read 1.35 times too bright.
+    // The hit's precision (on the interior tape, for a ray inside an object).
     let interior = path.stack.len > 0 && fs.interior.is_some() && fs.features.interiors;
-    let eps = match h.cell {
-        Some(cell) => cell.epsilon(h.p, s.shot.limits.epsilon, interior),
-        None => s.shot.limits.epsilon,
-    };
+    let eps = hit_epsilon(h.cell, h.p, s.shot.limits.epsilon, interior);
     let n = if n == DVec4::ZERO { -path.d } else { n };
     let entering = path.d.dot(n) < 0.0;
     if matches!(surface, Surface::Boundary { .. } | Surface::Glass { .. }) {

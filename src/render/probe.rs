@@ -13,6 +13,7 @@
 use super::camera::FrameCamera;
 use super::frame::FrameObject;
 use super::march::{Field, Hit, Limits, Marcher, Ray};
+use crate::vm::cells::hit_epsilon;
 use crate::vm::{Dual, LANES, Regs};
 use glam::DVec4;
 
@@ -594,8 +595,7 @@ fn march(
 }
 
 /// The mirror bounces of the rays that hit a surface, from just off it on the ray's side, as
-/// far off as the render's paths leave a hit marched through `field`: by the hit's cell's
-/// epsilon, or on the whole tape by the epsilon (`integrator::shade`). The normals are
+/// far off as the render's paths leave a hit marched through `field` (`hit_epsilon`). The normals are
 /// evaluated `LANES` hits of one object at a time (one at a time, they were most of a small
 /// frame's probe).
 fn bounce(
@@ -634,12 +634,8 @@ fn bounce(
         if n == DVec4::ZERO {
             continue;
         }
-        let eps = match (field.cells, &mut path) {
-            (Some(cells), Some(path)) => {
-                (cells.locate(path, p)).epsilon(p, limits.epsilon, r.interior)
-            }
-            _ => limits.epsilon,
-        };
+        let cell = (field.cells.zip(path.as_mut())).map(|(cells, path)| cells.locate(path, p));
+        let eps = hit_epsilon(cell, p, limits.epsilon, r.interior);
         out.push(Ray {
             o: p + n * (4.0 * eps),
             d: (r.d - 2.0 * r.d.dot(n) * n).normalize(),

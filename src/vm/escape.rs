@@ -36,10 +36,10 @@ pub struct Escape {
 }
 
 /// The exact unbounded objects (`Escape::ahead`): every form with its object's index in the
-/// scene, and the box of the bounded objects.
+/// scene, and the box of the bounded objects (none where there are none).
 struct Exact {
     forms: Vec<(Form, usize)>,
-    objects: (DVec4, DVec4),
+    objects: Option<(DVec4, DVec4)>,
 }
 
 /// What the exact unbounded objects say of a ray outside objects (`Escape::ahead`).
@@ -93,6 +93,8 @@ impl Escape {
             let forms = (covers.iter().flatten().zip(unbounded))
                 .flat_map(|(c, u)| c.forms.iter().map(|f| (f.clone(), u.0)))
                 .collect();
+            // (An empty box, `lo` above `hi`, is met by no ray.)
+            let objects = objects.0.cmple(objects.1).all().then_some(objects);
             Exact { forms, objects }
         });
         let unbounded: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
@@ -129,14 +131,10 @@ impl Escape {
     /// before it reaches it, without stepping there. Inside the box (where most rays that
     /// left a bounded object start, and end on another) nothing is met yet.
     pub fn ahead(&self, p: DVec4, d: DVec4, proofs: &mut Proofs) -> Ahead {
-        let Some(Exact {
-            forms,
-            objects: (lo, hi),
-        }) = self.exact.as_ref()
-        else {
+        let Some(Exact { forms, objects }) = self.exact.as_ref() else {
             return Ahead::Unknown;
         };
-        if p.cmpge(*lo).all() && p.cmple(*hi).all() {
+        if objects.is_some_and(|(lo, hi)| inside(p, lo, hi)) {
             return Ahead::Inside;
         }
         let (pa, da) = (p.to_array(), d.to_array());
@@ -151,11 +149,7 @@ impl Escape {
                 _ => {}
             }
         }
-        // (An empty box, `lo` above `hi`, is met by no ray.)
-        let (into, out) = match lo.cmple(*hi).all() {
-            true => span(p, d, *lo, *hi).unwrap_or((0.0, 0.0)),
-            false => (0.0, 0.0),
-        };
+        let (into, out) = (objects.and_then(|(lo, hi)| span(p, d, lo, hi))).unwrap_or((0.0, 0.0));
         Ahead::Meets {
             first,
             object,
@@ -437,10 +431,15 @@ const HALVINGS: u32 = 4;
 /// `t >= 0`; 0 when `p` is inside).
 pub fn entry(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<f64> {
     // Without divisions where most rays of a closed scene start: inside.
-    if p.cmpge(lo).all() && p.cmple(hi).all() {
+    if inside(p, lo, hi) {
         return Some(0.0);
     }
     span(p, d, lo, hi).map(|s| s.0)
+}
+
+/// Whether `p` is in the box `lo..hi`.
+fn inside(p: DVec4, lo: DVec4, hi: DVec4) -> bool {
+    p.cmpge(lo).all() && p.cmple(hi).all()
 }
 
 /// Where the ray from `p` along `d` is inside the box `lo..hi` (`t >= 0`), if it ever is.

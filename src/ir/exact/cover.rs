@@ -1,4 +1,4 @@
-//! Forms below an object that is no form itself, for escape proofs: where `x >= min_i f_i`
+//! Forms below an object, for escape proofs: where `x >= min_i f_i`
 //! everywhere, a ray that meets none of the forms `f_i` never reaches `x <= 0`, and one exact
 //! meeting of each (`Form::meet`) proves it instead of a pass of interval bounds over the
 //! object's graph. A halfspace with a ball cut out of it is covered by the halfspace, a smooth

@@ -42,14 +42,14 @@ impl Marcher {
                             hits[k] = end;
                             return false;
                         }
-                        // Nothing lies before the bounded objects' box: the ray starts there
-                        // (a shadow ray from far along a floor, a camera far from them).
-                        Err(Ahead::Meets { into, .. }) if into >= r.tmax => {
-                            hits[k] = Hit::Beyond;
-                            return false;
-                        }
                         Err(ahead) => {
+                            // Nothing lies before the bounded objects' box: the ray starts
+                            // there (a shadow ray from far along a floor, a camera far away).
                             if let Ahead::Meets { into, .. } = ahead {
+                                if into >= r.tmax {
+                                    hits[k] = Hit::Beyond;
+                                    return false;
+                                }
                                 st.t = into;
                             }
                             st.ahead = ahead;
@@ -124,11 +124,10 @@ impl Marcher {
                         // Past the bounded objects' box, where the ray meets the exact
                         // unbounded ones is where it ends (the box is convex: it never
                         // comes back).
-                        let clear = st.t - (st.step - st.radius).max(0.0);
                         let end = match st.ahead {
-                            Ahead::Meets { out, .. } if clear < out => None,
+                            Ahead::Meets { out, .. } if clear(st) < out => None,
                             Ahead::Meets { first, object, .. } => Some(end(r, first, object)),
-                            Ahead::Inside => look(field, r, clear, &mut self.proofs)
+                            Ahead::Inside => look(field, r, clear(st), &mut self.proofs)
                                 .map_err(|ahead| st.ahead = ahead)
                                 .ok(),
                             // Rays proven clear of every object from here on leave for the sky.
@@ -149,15 +148,19 @@ impl Marcher {
 }
 
 /// Whether the ray, once it has gone far enough past its last try (`retry`), provably meets no
-/// surface from where it is known to be clear: a relaxed step is checked only at the next
-/// point, so that is where the last step would have ended as a plain one.
+/// surface from where it is known to be clear (`clear`).
 fn escapes(field: Field, r: &Ray, st: &mut State, proofs: &mut Proofs) -> bool {
     if st.t < st.escape_at {
         return false;
     }
     st.escape_at = retry(st.t);
-    let clear = st.t - (st.step - st.radius).max(0.0);
-    (field.escape).escapes(r.o + r.d * clear, r.d, r.interior, &mut st.keep, proofs)
+    (field.escape).escapes(r.o + r.d * clear(st), r.d, r.interior, &mut st.keep, proofs)
+}
+
+/// Where the ray is known to be clear: a relaxed step is checked only at the next point, so
+/// that is where the last step would have ended as a plain one.
+fn clear(st: &State) -> f64 {
+    st.t - (st.step - st.radius).max(0.0)
 }
 
 /// Where the exact unbounded objects end the ray from `t` along it (`Escape::ahead`): where
