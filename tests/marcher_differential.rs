@@ -120,6 +120,8 @@ struct Tally {
     /// The kinds of the rays out of steps.
     stuck: Vec<&'static str>,
     faults: Vec<Fault>,
+    /// Scenes that are a few exact pieces, which every ray meets once (`Escape::pieces`).
+    exact: u64,
 }
 
 /// Which rays `r` is among: camera, bounce, shadow (to a point, so finite) or interior.
@@ -238,6 +240,7 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
     let scene = c.scene.expect("a scene");
     let frames = Frames::new(&scene);
     let fs = frames.at(0.0, Build::marcher(kind));
+    tally.exact += fs.escape.meets_every_ray() as u64;
     let ir = hyperslice::ir::lower(&scene);
     let mut roots = vec![ir.distance];
     roots.extend(ir.interior.map(|i| i.0));
@@ -339,6 +342,7 @@ fn soak(seed: u64, n: u64, kind: MarcherKind) -> (Tally, Vec<(u64, String)>) {
         total.out_of_steps += tally.out_of_steps;
         total.stuck.extend(tally.stuck);
         total.faults.extend(tally.faults);
+        total.exact += tally.exact;
     }
     (total, failures)
 }
@@ -373,8 +377,9 @@ fn tally(kind: MarcherKind, from: u64, n: u64) -> (Tally, Vec<String>, Vec<u64>)
         .collect();
     failures.retain(|(s, _)| !KNOWN.contains(s));
     eprintln!(
-        "{}: {n} scenes, {} segments, {} out of steps, {} faults in {} scenes",
+        "{}: {n} scenes ({} of exact pieces), {} segments, {} out of steps, {} faults in {} scenes",
         kind.name(),
+        tally.exact,
         tally.segments,
         tally.out_of_steps,
         tally.faults.len(),
@@ -408,9 +413,16 @@ fn generated_scenes_agree_with_the_reference() {
 #[test]
 fn the_whole_tape_marchers_agree_with_the_reference() {
     for kind in [MarcherKind::Plain, MarcherKind::Whole] {
-        let (_, failures, known) = tally(kind, 1, 300);
+        let (tally, failures, known) = tally(kind, 1, 300);
         let wrong = failures.len() + known.len();
         assert!(wrong == 0, "{}: {wrong} scenes disagree", kind.name());
+        // The whole tape meets the scenes of a few exact pieces at once; plain never does.
+        assert_eq!(
+            tally.exact > 0,
+            kind == MarcherKind::Whole,
+            "{}",
+            tally.exact
+        );
     }
 }
 

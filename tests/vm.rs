@@ -1836,33 +1836,48 @@ fn only_distances_become_exact_spheres() {
 /// The default marcher keeps a frame's cells only where its probe shows they pay: not on a D4
 /// tiling of boxes (a few instructions that nothing prunes, so cells only add bookkeeping),
 /// but on the D4 packing of spheres (met exactly, cell by cell of the lattice), on a union of
-/// 1024 spheres (cells cut each step to the few spheres nearby); on a sphere 1e6 from
-/// the origin, which its cell meets exactly where the whole tape's hits settle in `f64`; and
-/// with the camera inside glass, whose rays the probe marches on the interior tape as the
-/// render does. The probe stays small whatever the image's shape. A turned slab, and glass
-/// and a sphere thousands of epsilons across seen from 3e4 away, take the whole tape, which
-/// meets their planes exactly where the rays leave the bounded objects' box or never reach
-/// it (`Escape::ahead`): no step, relaxed or plain, so plain ones, as on any tie. (Through
-/// the cells, the slab was met exactly as a shell of a plane, and the glass in one cell; before
-/// rays inside objects met pieces, the glass's cells split to resolve the epsilon in `f32`,
-/// a ray built new ones at nearly every step, and building them was the whole render: 24.6 s
-/// through the cells, 0.07 s plain, 96 x 72, 4 spp.)
+/// 1024 spheres (cells cut each step to the few spheres nearby); on a blend of two spheres
+/// 1e6 from the origin, whose cells resolve the epsilon in `f32` where the whole tape's hits
+/// settle in `f64`; and with the camera inside glass, whose rays the probe marches on the
+/// interior tape as the render does. The probe stays small whatever the image's shape.
+/// A scene that is a few exact pieces (a turned slab, glass and a sphere thousands of
+/// epsilons across seen from 3e4 away, a sphere alone) is not probed: every ray meets the
+/// pieces once (`Escape::pieces`), on no cells. (Through the cells, the slab was met exactly
+/// as a shell of a plane, and the glass in one cell; before rays inside objects met pieces,
+/// the glass's cells split to resolve the epsilon in `f32`, a ray built new ones at nearly
+/// every step, and building them was the whole render: 24.6 s through the cells, 0.07 s
+/// plain, 96 x 72, 4 spp.)
 #[test]
 fn frames_march_through_cells_only_where_they_pay() {
     use hyperslice::compile::Frames;
     use hyperslice::render::frame::Build;
     use hyperslice::render::march::MarcherKind;
-    let far = "render { size = 64 x 48 }\n\
-               camera { from = [1e6, 0, -5, 0]  to = [1e6, 0, 0, 0] }\n\
-               object ball { shape = hypersphere(1) |> translate([1e6, 0, 0, 0]) \
-               material = diffuse(rgb(0.5)) }";
-    let inside = "render { size = 64 x 48 }\n\
-                  camera { from = [0, 0, -5, 0] }\n\
-                  object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }\n\
-                  object bath { shape = hypersphere(20) material = glass(ior: 1.3) }";
-    let tall = "render { size = 16 x 16384 }\n\
-                camera { from = [0, 0, -5, 0] }\n\
-                object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }";
+    // Two spheres blended: no piece a ray meets exactly.
+    let blob = |at: &str| {
+        format!(
+            "union(hypersphere(1) |> translate([{at}]), hypersphere(0.5) |> translate([{at}]) \
+             |> translate([0, 0.8, 0, 0]), smooth: 0.2)"
+        )
+    };
+    let far = format!(
+        "render {{ size = 64 x 48 }}\n\
+         camera {{ from = [1e6, 0, -5, 0]  to = [1e6, 0, 0, 0] }}\n\
+         object ball {{ shape = {} material = diffuse(rgb(0.5)) }}",
+        blob("1e6, 0, 0, 0")
+    );
+    let inside = format!(
+        "render {{ size = 64 x 48 }}\n\
+         camera {{ from = [0, 0, -5, 0] }}\n\
+         object ball {{ shape = {} material = diffuse(rgb(0.5)) }}\n\
+         object bath {{ shape = hypersphere(20) material = glass(ior: 1.3) }}",
+        blob("0, 0, 0, 0")
+    );
+    let tall = format!(
+        "render {{ size = 16 x 16384 }}\n\
+         camera {{ from = [0, 0, -5, 0] }}\n\
+         object ball {{ shape = {} material = diffuse(rgb(0.5)) }}",
+        blob("0, 0, 0, 0")
+    );
     let boxes = "render { size = 64 x 48 }\n\
                  camera { from = [0.5, 0.5, -2.5, 0] }\n\
                  object boxes { shape = hyperbox(0.3) |> tile(d4(1)) \
@@ -1873,37 +1888,60 @@ fn frames_march_through_cells_only_where_they_pay() {
                  offset: -9.97e3) material = glass(ior: 1.5) }\n\
                  object ball { shape = hypersphere(8.9e3) |> translate([7.47e3, 4.77e3, \
                  -4.73e3, 1.65e3]) material = diffuse(rgb(0.5)) }";
-    // (scene, cells kept, relaxed steps)
+    let alone = "render { size = 64 x 48 }\n\
+                 camera { from = [0, 0, -5, 0] }\n\
+                 object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }";
+    // (scene, how it marches: cells kept and relaxed steps, or none for exact pieces)
     let cases = [
         (
             Compilation::from_path(Path::new("examples/d4_packing.4ds")),
-            true,
-            true,
+            Some((true, true)),
         ),
-        (Compilation::from_source("boxes.4ds", boxes), false, true),
+        (
+            Compilation::from_source("boxes.4ds", boxes),
+            Some((false, true)),
+        ),
         (
             Compilation::from_path_with(
                 Path::new("benches/scenes/spheres.4ds"),
                 &["n=32".to_string()],
             ),
-            true,
-            true,
+            Some((true, true)),
         ),
-        (Compilation::from_source("far.4ds", far), true, true),
-        (Compilation::from_source("inside.4ds", inside), true, true),
-        (Compilation::from_source("tall.4ds", tall), false, true),
-        (Compilation::from_source("split.4ds", split), false, false),
+        (
+            Compilation::from_source("far.4ds", &far),
+            Some((true, true)),
+        ),
+        (
+            Compilation::from_source("inside.4ds", &inside),
+            Some((true, true)),
+        ),
+        (
+            Compilation::from_source("tall.4ds", &tall),
+            Some((false, true)),
+        ),
+        (Compilation::from_source("split.4ds", split), None),
         (
             Compilation::from_path(Path::new("benches/scenes/turned_slab.4ds")),
-            false,
-            false,
+            None,
         ),
+        (Compilation::from_source("alone.4ds", alone), None),
     ];
-    for (c, cells, relax) in cases {
+    for (c, marching) in cases {
         assert!(!c.has_errors(), "{}", c.render_diagnostics(false));
         let scene = c.scene.expect("a scene");
         let frames = Frames::new(&scene);
         let fs = frames.at(0.0, Build::marcher(MarcherKind::Auto));
+        assert_eq!(
+            fs.escape.meets_every_ray(),
+            marching.is_none(),
+            "{:?}",
+            fs.probe
+        );
+        let Some((cells, relax)) = marching else {
+            assert!(fs.probe.is_none() && fs.cells.is_none() && fs.unlit.is_empty());
+            continue;
+        };
         let probe = fs.probe.expect("the default marcher probes");
         assert_eq!(fs.cells.is_some(), cells, "{probe:?}");
         assert_eq!(fs.relax, relax, "{probe:?}");

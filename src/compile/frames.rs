@@ -120,10 +120,13 @@ impl Frames {
             relax: build.marcher != MarcherKind::Plain,
             probe: None,
         };
-        if build.marcher == MarcherKind::Auto {
+        // Where every ray meets the scene's few exact pieces once, cells would only meet the
+        // same pieces (and shadow rays see the light if it is the first they meet).
+        let exact = fs.escape.meets_every_ray();
+        if build.marcher == MarcherKind::Auto && !exact {
             fs.choose_marcher(&self.shot, || plan.build(&program.ir));
         }
-        if fs.cells.is_none() && build.marcher != MarcherKind::Plain {
+        if fs.cells.is_none() && build.marcher != MarcherKind::Plain && !exact {
             fs.unlit = unlit(&program.ir, fs.lights.lights());
         }
         fs

@@ -68,7 +68,8 @@ pub struct FrameScene {
     pub lights: Lights,
     /// For each of `lights`, the scene tape without that light, which shadow rays towards
     /// it march up to its ball; empty where the frame marches through cells (whose tapes
-    /// meet spheres exactly) or under `--marcher plain` (the baseline takes no shortcut).
+    /// meet spheres exactly), where every ray meets the scene's exact pieces
+    /// (`Escape::pieces`), or under `--marcher plain` (the baseline takes no shortcut).
     #[doc(hidden)]
     pub unlit: Vec<Tape>,
     /// The scene and interior tapes pruned to regions of space: what rays march through
@@ -81,7 +82,8 @@ pub struct FrameScene {
     /// Whether rays over-relax their steps (every marcher but the plain one, and `auto` where
     /// its probe finds plain steps cheaper).
     pub relax: bool,
-    /// What the probe that chose the marcher found (`MarcherKind::Auto` only).
+    /// What the probe that chose the marcher found (`MarcherKind::Auto` only, where not every
+    /// ray meets the scene's exact pieces).
     #[doc(hidden)]
     pub probe: Option<Probe>,
 }

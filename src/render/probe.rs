@@ -419,6 +419,8 @@ pub enum Choice {
     Whole,
     /// Plain steps on the whole tape, because they cost less than relaxed ones there.
     PlainSteps,
+    /// No probe: every ray meets the scene's few exact pieces once (`Escape::pieces`).
+    Exact,
 }
 
 impl Choice {
@@ -429,6 +431,7 @@ impl Choice {
             Choice::CellsForSpeed => "cells (speed)",
             Choice::Whole => "whole (speed)",
             Choice::PlainSteps => "whole, plain steps (speed)",
+            Choice::Exact => "exact pieces",
         }
     }
 }

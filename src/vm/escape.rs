@@ -5,9 +5,10 @@
 //! (`Escape::clear`).
 
 use crate::ir::eval;
-use crate::ir::exact::{Cover, Form, Reach, cover};
+use crate::ir::exact::{Cover, Form, Pieces, Reach, cover, pieces};
 use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
+use crate::vm::cells::FEW_PIECES;
 use glam::DVec4;
 
 /// The box `lo..hi` holds every bounded object (by its ball, or a box `proven_box` found), and
@@ -33,6 +34,10 @@ pub struct Escape {
     covers: Vec<Option<Cover>>,
     /// Where every unbounded object is a min of forms (an exact cover), what `ahead` meets.
     exact: Option<Exact>,
+    /// Where the whole scene is a few closed pieces, and so is the interior distance where
+    /// objects can be entered: the pieces rays outside objects and inside them meet
+    /// (`Escape::pieces`); none for the plain marcher, which takes no exact shortcut.
+    pieces: Option<[Option<Pieces>; 2]>,
 }
 
 /// The exact unbounded objects (`Escape::ahead`): every form with its object's index in the
@@ -75,9 +80,9 @@ impl Escape {
         (bounded, objects): ((DVec4, DVec4), (DVec4, DVec4)),
         unbounded: &[(usize, Id)],
         (scene, interior): ((Id, Id), Option<(Id, Id)>),
-        (t, covers): (f64, bool),
+        (t, covers_wanted): (f64, bool),
     ) -> Escape {
-        let covers: Vec<Option<Cover>> = match covers {
+        let covers: Vec<Option<Cover>> = match covers_wanted {
             true => unbounded.iter().map(|&(_, u)| cover(g, u)).collect(),
             false => vec![],
         };
@@ -97,6 +102,9 @@ impl Escape {
             let objects = objects.0.cmple(objects.1).all().then_some(objects);
             Exact { forms, objects }
         });
+        let pieces = covers_wanted
+            .then(|| whole_pieces(g, scene, interior))
+            .flatten();
         let unbounded: Vec<Id> = unbounded.iter().map(|u| u.1).collect();
         let unbounded = &unbounded[..];
         let (graph, map) = g.rebuild(unbounded, |g, n| g.intern(n));
@@ -121,7 +129,21 @@ impl Escape {
             never,
             covers,
             exact,
+            pieces,
         }
+    }
+
+    /// Where the whole scene is a few closed pieces (`FEW_PIECES` at most: as many as a cell
+    /// meets without splitting), the pieces a ray outside objects (`interior` false) or
+    /// inside them meets: once, from where it starts, it knows where it ends (`march`). Set
+    /// for both or neither, so a frame with them needs no cells and no probe.
+    pub fn pieces(&self, interior: bool) -> Option<&Pieces> {
+        self.pieces.as_ref()?[interior as usize].as_ref()
+    }
+
+    /// Whether every ray of the frame meets the scene's pieces (`pieces`).
+    pub fn meets_every_ray(&self) -> bool {
+        self.pieces.is_some()
     }
 
     /// Where the ray from `p` along `d`, outside objects, meets the unbounded objects and the
@@ -319,6 +341,27 @@ impl Escape {
             _ => u64::MAX,
         }
     }
+}
+
+/// The pieces of the scene's distance and, where objects can be entered, of the interior
+/// distance (`Escape::pieces`), where each is a few closed ones: none of a tiled ball, whose
+/// crossing of its lattice may stop short.
+fn whole_pieces(
+    g: &Graph,
+    scene: (Id, Id),
+    interior: Option<(Id, Id)>,
+) -> Option<[Option<Pieces>; 2]> {
+    let few = |(d, n): (Id, Id)| {
+        pieces(g, d, n)
+            .filter(|p| p.len() <= FEW_PIECES && p.iter().all(|p| p.form.closed()))
+            .map(Pieces::from)
+    };
+    let outside = few(scene)?;
+    let inside = match interior {
+        Some(i) => Some(few(i)?),
+        None => None,
+    };
+    Some([Some(outside), inside])
 }
 
 /// Whether some unbounded object (the roots of `g`) is one no escape proof can clear, for
