@@ -1295,8 +1295,8 @@ fn boxes_are_met_from_far_and_along_short_directions() {
     use hyperslice::ir::exact::Form;
     let mut rows = [[0.0; 4]; 4];
     (0..4).for_each(|i| rows[i][i] = 1.0);
-    let unit_box = |rows, r| Form::Box {
-        rows,
+    let unit_box = |rows: [[f64; 4]; 4], r| Form::Box {
+        rows: rows.into(),
         b: [0.0; 4],
         half: [1.0; 4],
         r,
@@ -1363,7 +1363,7 @@ fn random_form(rng: &mut Pcg64Mcg, kind: usize) -> hyperslice::ir::exact::Form {
             c: rng.random_range(-2.0..2.0),
         },
         1 | 2 => Form::Ball {
-            rows: std::array::from_fn(|_| random_point(rng, 1.5)),
+            rows: std::array::from_fn(|_| random_point(rng, 1.5)).into(),
             b: random_point(rng, 2.0),
             r: rng.random_range(0.1..2.0),
             sign,
@@ -1382,7 +1382,7 @@ fn random_form(rng: &mut Pcg64Mcg, kind: usize) -> hyperslice::ir::exact::Form {
                 _ => rng.random_range(0.01..0.6),
             };
             Form::Box {
-                rows: random_rotation(rng),
+                rows: random_rotation(rng).into(),
                 b: random_point(rng, 1.0),
                 half,
                 r,
@@ -1400,7 +1400,7 @@ fn random_form(rng: &mut Pcg64Mcg, kind: usize) -> hyperslice::ir::exact::Form {
             let f = random_form(rng, inner);
             let f = match f {
                 Form::Ball { b, r, .. } => Form::Ball {
-                    rows: random_rotation(rng),
+                    rows: random_rotation(rng).into(),
                     b,
                     r,
                     sign: 1.0,

@@ -751,10 +751,12 @@ impl Met {
 
 #[inline(never)]
 fn meet_forms(pieces: &[Piece], p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
-    let (p, d) = (p.to_array(), d.to_array());
-    let mut met = Met::NONE;
-    for piece in pieces {
-        met.take(piece, piece.form.meet(p, d, reach));
-    }
-    met.cut()
+    crate::simd::wide!({
+        let (p, d) = (p.to_array(), d.to_array());
+        let mut met = Met::NONE;
+        for piece in pieces {
+            met.take(piece, piece.form.meet(p, d, reach));
+        }
+        met.cut()
+    })
 }

@@ -3,7 +3,7 @@
 //! is one loop without branches, which the compiler runs two balls at a time, with the same
 //! arithmetic, in the same order, as `Form::meet` (so the same bits).
 
-use super::{Form, IDENTITY, Meeting, Piece, roots, wide};
+use super::{Form, Meeting, Piece, roots, wide};
 use std::ops::Deref;
 
 /// Balls met in one pass of the loop.
@@ -29,7 +29,7 @@ struct Moved {
 
 impl From<Vec<Piece>> for Pieces {
     fn from(list: Vec<Piece>) -> Pieces {
-        let is_moved = |p: &Piece| matches!(&p.form, Form::Ball { rows, sign, .. } if *rows == IDENTITY && *sign == 1.0);
+        let is_moved = |p: &Piece| matches!(&p.form, Form::Ball { rows, sign, .. } if rows.identity() && *sign == 1.0);
         // One ball alone is met as fast by `Form::meet`.
         let moved = (list.iter().filter(|p| is_moved(p)).count() > 1).then(|| {
             let mut moved = Moved {
@@ -148,6 +148,7 @@ impl Moved {
 
 #[cfg(test)]
 mod tests {
+    use super::super::IDENTITY;
     use super::*;
     use proptest::prelude::*;
 
@@ -165,7 +166,7 @@ mod tests {
         };
         Piece {
             form: Form::Ball {
-                rows,
+                rows: rows.into(),
                 b: c.map(|x| -x),
                 r,
                 sign,

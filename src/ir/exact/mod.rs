@@ -32,7 +32,7 @@ pub enum Form {
     /// inside, its complement) of a linear image of the point (`first` solves any `A`; the
     /// pieces of cells have orthonormal rows, so that the value is a distance).
     Ball {
-        rows: [[f64; 4]; 4],
+        rows: Rows,
         b: [f64; 4],
         r: f64,
         sign: f64,
@@ -41,7 +41,7 @@ pub enum Form {
     /// `half`: the box grown by `r` and rounded where `r > 0`, shrunk where it is negative,
     /// its complement where `sign` is `-1` (rows as for `Ball`).
     Box {
-        rows: [[f64; 4]; 4],
+        rows: Rows,
         b: [f64; 4],
         half: [f64; 4],
         r: f64,
@@ -63,12 +63,43 @@ pub enum Form {
     Lattice(Box<Tiled>),
 }
 
+/// The rows of a form's linear map `A`, and whether they are the identity's: most balls and
+/// boxes are only moved, and comparing the sixteen entries at each meeting cost a tenth of
+/// meeting a room's three pieces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Rows {
+    a: [[f64; 4]; 4],
+    identity: bool,
+}
+
+impl From<[[f64; 4]; 4]> for Rows {
+    fn from(a: [[f64; 4]; 4]) -> Rows {
+        Rows {
+            a,
+            identity: a == IDENTITY,
+        }
+    }
+}
+
+impl std::ops::Deref for Rows {
+    type Target = [[f64; 4]; 4];
+    fn deref(&self) -> &[[f64; 4]; 4] {
+        &self.a
+    }
+}
+
+impl Rows {
+    /// Whether `A` is the identity.
+    pub fn identity(&self) -> bool {
+        self.identity
+    }
+}
+
 /// The ray from `p` along `d` in a form's coordinates `A p + b` (the rows of `A` in `rows`).
-/// Most balls and boxes are only moved: rows that are the identity's add and multiply
-/// nothing (exactly, as the products would).
+/// Rows that are the identity's add and multiply nothing (exactly, as the products would).
 #[inline(always)]
-fn local(rows: &[[f64; 4]; 4], b: &[f64; 4], p: [f64; 4], d: [f64; 4]) -> ([f64; 4], [f64; 4]) {
-    if *rows == IDENTITY {
+fn local(rows: &Rows, b: &[f64; 4], p: [f64; 4], d: [f64; 4]) -> ([f64; 4], [f64; 4]) {
+    if rows.identity {
         (std::array::from_fn(|i| p[i] + b[i]), d)
     } else {
         let u = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
@@ -605,7 +636,7 @@ fn form(g: &Graph, id: Id) -> Option<Form> {
             .all(|x| x.is_finite());
         let sized = half.iter().all(|h| *h >= 0.0);
         return (finite && sized && k[8].is_finite() && orthonormal(&rows)).then_some(Form::Box {
-            rows,
+            rows: rows.into(),
             b,
             half,
             r: k[8],
@@ -627,7 +658,7 @@ fn form(g: &Graph, id: Id) -> Option<Form> {
     let r = r[4].get();
     if let Some((rows, b)) = ball(&mut |id| point(g, id)) {
         return orthonormal(&rows).then_some(Form::Ball {
-            rows,
+            rows: rows.into(),
             b,
             r,
             sign: 1.0,
