@@ -74,11 +74,7 @@ impl Frames {
         let program = frame.program;
         let objects: Vec<FrameObject> = (program.objects.into_iter())
             .zip(&program.ir.objects)
-            .map(|(o, ir)| FrameObject {
-                distance: o.distance,
-                material: o.material,
-                layout: layout(&ir.material.leaves),
-            })
+            .map(|(o, ir)| FrameObject::new(o.distance, o.material, layout(&ir.material.leaves), t))
             .collect();
         let lights = (frame.lights.iter())
             .filter_map(|l| sphere_light(l, &objects[l.object], t))
@@ -312,16 +308,7 @@ impl CellsPlan {
 /// surface); `None` if that material is not a light at this frame.
 fn sphere_light(l: &LightPlacement, o: &FrameObject, t: f64) -> Option<SphereLight> {
     let center = DVec4::from_array(l.center);
-    let mut regs = crate::vm::Regs::<f32, 1>::new(&o.material);
-    let p = center + DVec4::X * l.radius;
-    let out = crate::vm::eval_point(
-        &o.material,
-        &mut regs,
-        p.as_vec4().to_array(),
-        [1.0, 0.0, 0.0, 0.0],
-        t as f32,
-    );
-    match o.layout.surface(&out) {
+    match o.surface_at(center + DVec4::X * l.radius, DVec4::X, t) {
         Surface::Light { radiance } => Some(SphereLight {
             center,
             radius: l.radius,

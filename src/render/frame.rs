@@ -7,7 +7,7 @@ use super::camera::FrameCamera;
 use super::integrator::Stack;
 use super::lights::Lights;
 use super::march::{Field, Limits, MarcherKind};
-use super::material::{Layout, Medium};
+use super::material::{Layout, Medium, Surface};
 use super::probe::{Choice, Probe, Sight};
 use crate::vm::Tape;
 use crate::vm::cells::Cells;
@@ -23,9 +23,35 @@ pub struct FrameObject {
     pub material: Tape,
     /// Where each leaf's parameters sit among `material`'s outputs.
     pub layout: Layout,
+    /// The surface at every point, where `material` reads neither the point nor the normal
+    /// (most materials): computed once, instead of running the tape at each hit.
+    pub uniform: Option<Surface>,
 }
 
 impl FrameObject {
+    /// The object's tapes and layout, with its surface where it is the same everywhere.
+    pub fn new(distance: Tape, material: Tape, layout: Layout, t: f64) -> FrameObject {
+        let mut o = FrameObject {
+            distance,
+            material,
+            layout,
+            uniform: None,
+        };
+        if o.material.inputs.is_empty() {
+            o.uniform = Some(o.surface_at(DVec4::ZERO, DVec4::W, t));
+        }
+        o
+    }
+
+    /// The surface at `p`, with unit normal `n`, at animation time `t`: the material tape at
+    /// one point.
+    pub fn surface_at(&self, p: DVec4, n: DVec4, t: f64) -> Surface {
+        let mut regs = crate::vm::Regs::<f32, 1>::new(&self.material);
+        let (p, n) = (p.as_vec4().to_array(), n.as_vec4().to_array());
+        let out = crate::vm::eval_point(&self.material, &mut regs, p, n, t as f32);
+        self.layout.surface(&out)
+    }
+
     /// The object's signed distance at `p`, at animation time `t` (one point on its tape).
     pub fn distance_at(&self, p: DVec4, t: f64) -> f64 {
         let mut regs = crate::vm::Regs::<f32, 1>::new(&self.distance);

@@ -240,6 +240,7 @@ pub struct Scratch {
     rays: Vec<Ray>,
     hits: Vec<Hit>,
     outputs: Vec<f32>,
+    surfaces: Vec<Surface>,
     normals: Vec<DVec4>,
     grad: Option<Regs<Dual, LANES>>,
     regs: Option<Regs<f32, LANES>>,
@@ -314,15 +315,7 @@ impl Stack {
             if !o.layout.has_interior() || !fs.contains(i, p, eps) {
                 continue;
             }
-            let mut regs = Regs::<f32, 1>::new(&o.material);
-            let out = crate::vm::eval_point(
-                &o.material,
-                &mut regs,
-                p.as_vec4().to_array(),
-                [0.0, 0.0, 0.0, 1.0],
-                fs.t as f32,
-            );
-            match o.layout.surface(&out) {
+            match o.surface_at(p, DVec4::W, fs.t) {
                 Surface::Glass { inside, .. } | Surface::Boundary { inside } => {
                     stack.push(i as u32, inside)
                 }
@@ -348,6 +341,7 @@ fn trace(
         rays,
         hits,
         outputs,
+        surfaces,
         normals,
         grad,
         regs,
@@ -429,18 +423,26 @@ fn trace(
             let object = &fs.objects[group[0].object as usize];
             for chunk in group.chunks(LANES) {
                 normals_of(chunk, object, grad, normals);
-                let n_out = object.material.outputs.len();
-                regs.fit(&object.material);
-                regs.set_time(fs.t as f32);
-                for (lane, (h, n)) in chunk.iter().zip(normals.iter()).enumerate() {
-                    regs.set_point(lane, h.p.as_vec4().to_array(), n.as_vec4().to_array());
+                surfaces.clear();
+                match object.uniform {
+                    Some(surface) => surfaces.resize(chunk.len(), surface),
+                    None => {
+                        regs.fit(&object.material);
+                        regs.set_time(fs.t as f32);
+                        for (lane, (h, n)) in chunk.iter().zip(normals.iter()).enumerate() {
+                            let (p, n) = (h.p.as_vec4().to_array(), n.as_vec4().to_array());
+                            regs.set_point(lane, p, n);
+                        }
+                        run(&object.material, regs);
+                        surfaces.extend((0..chunk.len()).map(|lane| {
+                            outputs.clear();
+                            let out = object.material.outputs.iter().map(|&o| regs.get(o)[lane]);
+                            outputs.extend(out);
+                            object.layout.surface(outputs)
+                        }));
+                    }
                 }
-                run(&object.material, regs);
-                for (lane, (h, &n)) in chunk.iter().zip(normals.iter()).enumerate() {
-                    outputs.clear();
-                    outputs.extend(object.material.outputs.iter().map(|&o| regs.get(o)[lane]));
-                    debug_assert_eq!(outputs.len(), n_out);
-                    let surface = object.layout.surface(outputs);
+                for ((h, &n), &surface) in chunk.iter().zip(normals.iter()).zip(surfaces.iter()) {
                     let path = &mut paths[h.path as usize];
                     let pixel = &mut sums[path.pixel as usize];
                     let alive_now = shade(path, h, n, surface, fs, s, &nee, shadows, pixel);
