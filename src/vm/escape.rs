@@ -37,7 +37,7 @@ pub struct Escape {
     /// Where the whole scene is a few closed pieces, and so is the interior distance where
     /// objects can be entered: the pieces rays outside objects and inside them meet
     /// (`Escape::pieces`); none for the plain marcher, which takes no exact shortcut.
-    pieces: Option<[Option<Pieces>; 2]>,
+    pieces: Option<(Pieces, Option<Pieces>)>,
 }
 
 /// The exact unbounded objects (`Escape::ahead`): every form with its object's index in the
@@ -136,9 +136,12 @@ impl Escape {
     /// Where the whole scene is a few closed pieces (`FEW_PIECES` at most: as many as a cell
     /// meets without splitting), the pieces a ray outside objects (`interior` false) or
     /// inside them meets: once, from where it starts, it knows where it ends (`march`). Set
-    /// for both or neither, so a frame with them needs no cells and no probe.
+    /// for both or neither, so a frame with them needs no cells and no probe; where no
+    /// object can be entered, a ray inside objects meets the scene's, as it would march the
+    /// scene tape.
     pub fn pieces(&self, interior: bool) -> Option<&Pieces> {
-        self.pieces.as_ref()?[interior as usize].as_ref()
+        let (scene, inside) = self.pieces.as_ref()?;
+        Some(inside.as_ref().filter(|_| interior).unwrap_or(scene))
     }
 
     /// Whether every ray of the frame meets the scene's pieces (`pieces`).
@@ -350,7 +353,7 @@ fn whole_pieces(
     g: &Graph,
     scene: (Id, Id),
     interior: Option<(Id, Id)>,
-) -> Option<[Option<Pieces>; 2]> {
+) -> Option<(Pieces, Option<Pieces>)> {
     let few = |(d, n): (Id, Id)| {
         pieces(g, d, n)
             .filter(|p| p.len() <= FEW_PIECES && p.iter().all(|p| p.form.closed()))
@@ -361,7 +364,7 @@ fn whole_pieces(
         Some(i) => Some(few(i)?),
         None => None,
     };
-    Some([Some(outside), inside])
+    Some((outside, inside))
 }
 
 /// Whether some unbounded object (the roots of `g`) is one no escape proof can clear, for

@@ -22,7 +22,7 @@
 mod lanes;
 mod plain;
 
-use crate::ir::exact::CELLS;
+use crate::ir::exact::{CELLS, Pieces};
 use crate::vm::Tape;
 use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
 use crate::vm::escape::{Ahead, Escape, Proofs};
@@ -284,6 +284,18 @@ impl Marcher {
         // found nothing yet.
         hits.clear();
         hits.resize(rays.len(), Hit::Beyond);
+        // A scene of a few exact pieces, off the cells (which `--marcher cells` keeps): each
+        // ray ends where it first meets one.
+        if field.cells.is_none() && field.escape.meets_every_ray() {
+            self.state.clear();
+            for (r, hit) in rays.iter().zip(hits.iter_mut()) {
+                let pieces = field.escape.pieces(r.interior).expect("a frame of pieces");
+                *hit = meet_pieces(pieces, r, limits.epsilon);
+                self.instructions += (pieces.len() * PIECE_WORK) as u64;
+            }
+            self.evaluations += rays.len() as u64;
+            return;
+        }
         let keep = field.escape.unbounded();
         self.state.clear();
         // An unsigned distance does not change sign where a relaxed step crosses a surface,
@@ -590,6 +602,22 @@ fn unrelax(st: &mut State, d: f64) -> Option<Step> {
 /// (cells live in the frame's tree, which does not move while rays march).
 fn address(cell: &Cell) -> usize {
     cell as *const Cell as usize
+}
+
+/// Where the ray ends in a scene that is the few exact `pieces`: on the surface where it
+/// starts within `epsilon` of one (as in a cell of pieces), else where it first meets one,
+/// if before `tmax`.
+fn meet_pieces(pieces: &Pieces, r: &Ray, epsilon: f64) -> Hit {
+    let met = meet(pieces, r.o, r.d, (r.tmax, CELLS));
+    let (near, first) = (met.near(), met.first());
+    if near.0 < epsilon {
+        Hit::Surface {
+            t: 0.0,
+            object: object(near.1),
+        }
+    } else {
+        plain::end(r, first.0, object(first.1))
+    }
 }
 
 /// An object index from a piece's (-1, none, for the cut bound of what is far).

@@ -11,9 +11,7 @@
 use super::{
     Field, Hit, Limits, Marcher, Ray, State, Step, approach, careful, crawl, finish, retry, unrelax,
 };
-use super::{PIECE_WORK, object};
-use crate::ir::exact::{CELLS, Pieces};
-use crate::vm::cells::{epsilon_at, meet};
+use crate::vm::cells::epsilon_at;
 use crate::vm::escape::{Ahead, Proofs};
 
 impl Marcher {
@@ -35,16 +33,8 @@ impl Marcher {
             // Rays proven clear of every object from where they start leave for the sky, and
             // rays that meet an exact unbounded object before the bounded objects' box, or
             // never reach that box, end there; the others that will reach it start there.
-            let pieces = field.escape.pieces(interior);
             self.active.retain(|&i| {
                 let (k, r) = (i as usize, &rays[i as usize]);
-                // A scene of a few exact pieces: the ray ends where it first meets one.
-                if let Some(pieces) = pieces {
-                    hits[k] = meet_pieces(pieces, r, limits.epsilon);
-                    self.evaluations += 1;
-                    self.instructions += (pieces.len() * PIECE_WORK) as u64;
-                    return false;
-                }
                 let st = &mut self.state[k];
                 if !interior {
                     match look(field, r, 0.0, &mut self.proofs) {
@@ -173,22 +163,6 @@ fn clear(st: &State) -> f64 {
     st.t - (st.step - st.radius).max(0.0)
 }
 
-/// Where the ray ends in a scene that is the few exact `pieces`: on the surface where it
-/// starts within `epsilon` of one (as in a cell of pieces), else where it first meets one,
-/// if before `tmax`.
-fn meet_pieces(pieces: &Pieces, r: &Ray, epsilon: f64) -> Hit {
-    let met = meet(pieces, r.o, r.d, (r.tmax, CELLS));
-    let (near, first) = (met.near(), met.first());
-    if near.0 < epsilon {
-        Hit::Surface {
-            t: 0.0,
-            object: object(near.1),
-        }
-    } else {
-        end(r, first.0, object(first.1))
-    }
-}
-
 /// Where the exact unbounded objects end the ray from `t` along it (`Escape::ahead`): where
 /// it meets them, if it does before the bounded objects' box or never meets that box; else
 /// what they say, along the whole ray.
@@ -216,7 +190,7 @@ fn look(field: Field, r: &Ray, t: f64, proofs: &mut Proofs) -> Result<Hit, Ahead
 }
 
 /// The end of a ray whose first meeting is `object` at `t` (infinity: none), if before `tmax`.
-fn end(r: &Ray, t: f64, object: usize) -> Hit {
+pub(super) fn end(r: &Ray, t: f64, object: usize) -> Hit {
     match t < r.tmax {
         true => Hit::Surface { t, object },
         false => Hit::Beyond,
