@@ -1336,6 +1336,43 @@ fn boxes_are_met_from_far_and_along_short_directions() {
     }
 }
 
+/// An exact form's gradient (the normals of a frame met as exact pieces) is the slope of its
+/// value: central differences agree with it on every kind of form wherever the two one-sided
+/// differences do (off edges, ridges and the centres of balls, where there is no slope).
+#[test]
+fn exact_forms_gradients_are_the_slopes_of_their_values() {
+    let mut rng = Pcg64Mcg::seed_from_u64(33);
+    let mut checked = 0;
+    for i in 0..20000 {
+        let form = random_form(&mut rng, i % 9);
+        let p = random_point(&mut rng, 3.0);
+        let g = form.gradient(p).expect("no tiled ball");
+        let h = 1e-6;
+        let at = |a: usize, t: f64| {
+            let mut q = p;
+            q[a] += t;
+            form.value(q)
+        };
+        let v = form.value(p);
+        let smooth = (0..4).all(|a| {
+            let (fwd, back) = ((at(a, h) - v) / h, (v - at(a, -h)) / h);
+            (fwd - back).abs() < 1e-4 * (1.0 + fwd.abs())
+        });
+        if !smooth {
+            continue;
+        }
+        for (a, ga) in g.iter().enumerate() {
+            let slope = (at(a, h) - at(a, -h)) / (2.0 * h);
+            assert!(
+                (ga - slope).abs() < 1e-5 * (1.0 + slope.abs()),
+                "{form:?} at {p:?}: gradient {g:?}, slope {slope} along {a}"
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked > 15000, "{checked} points checked");
+}
+
 /// Random orthonormal rows (a rotation), by Gram-Schmidt.
 fn random_rotation(rng: &mut Pcg64Mcg) -> [[f64; 4]; 4] {
     let mut rows = [[0.0; 4]; 4];

@@ -33,6 +33,7 @@ use super::phase::{HenyeyGreenstein, PhaseFunction};
 use super::sampler::{Sampler, SamplerKind};
 use super::sampling::Frame;
 use crate::film::PixelSums;
+use crate::ir::exact::Pieces;
 use crate::vm::cells::{Cell, Cells, hit_epsilon};
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
@@ -415,14 +416,18 @@ fn trace(
             }
         }
 
-        // Normals and materials, a packet of one object's hits at a time.
+        // Normals and materials, a packet of one object's hits at a time; where every ray
+        // meets the scene's exact pieces, normals from those.
+        let pieces = (fs.cells.is_none())
+            .then(|| fs.escape.pieces(false))
+            .flatten();
         // By cell too, for the normals; in the same order in every run, since shading adds to
         // the pixels' sums in this order.
         pending.sort_by_key(|h| (h.object, h.cell.map(Cell::id)));
         for group in pending.chunk_by(|a, b| a.object == b.object) {
             let object = &fs.objects[group[0].object as usize];
             for chunk in group.chunks(LANES) {
-                normals_of(chunk, object, grad, normals);
+                normals_of(chunk, object, pieces, grad, normals);
                 surfaces.clear();
                 match object.uniform {
                     Some(surface) => surfaces.resize(chunk.len(), surface),
@@ -478,32 +483,45 @@ fn trace(
 
 /// Unit outward normals at the hits, by forward-mode gradients of each hit's object's distance
 /// as pruned to the hit's cell (in its local coordinates, so far from the origin they keep
-/// their precision; one packet per cell); where the gradient vanishes or is not finite, the
-/// normal faces back along the ray.
+/// their precision; one packet per cell), or, in a frame met as a few exact pieces
+/// (`pieces`), in `f64` from the object's piece that is least at the hit (the one its
+/// distance is, as a min of them); where the gradient vanishes or is not finite, the normal
+/// faces back along the ray.
 fn normals_of(
     hits: &[Pending],
     object: &FrameObject,
+    pieces: Option<&Pieces>,
     grad: &mut Regs<Dual, LANES>,
     out: &mut Vec<DVec4>,
 ) {
     let mut g = Vec::with_capacity(hits.len());
-    let same = |a: Option<&Cell>, b: Option<&Cell>| match (a, b) {
-        (Some(a), Some(b)) => std::ptr::eq(a, b),
-        (a, b) => a.is_none() && b.is_none(),
-    };
-    for run in hits.chunk_by(|a, b| same(a.cell, b.cell)) {
-        let (tape, origin) = match run[0].cell {
-            Some(cell) => (&cell.objects()[run[0].object as usize], cell.origin),
-            None => (&object.distance, DVec4::ZERO),
+    // (The hits are all on one object; one the scene's pieces leave out, air, has its tape.)
+    let pieces = pieces.filter(|p| (hits.first()).is_some_and(|h| p.of(h.object as usize)));
+    if let Some(pieces) = pieces {
+        g.extend(hits.iter().map(|h| piece_gradient(pieces, h.object, h.p)));
+    } else {
+        let same = |a: Option<&Cell>, b: Option<&Cell>| match (a, b) {
+            (Some(a), Some(b)) => std::ptr::eq(a, b),
+            (a, b) => a.is_none() && b.is_none(),
         };
-        let points: Vec<[f32; 4]> = (run.iter())
-            .map(|h| (h.p - origin).as_vec4().to_array())
-            .collect();
-        g.extend(crate::vm::gradient(tape, grad, &points, 0.0));
+        for run in hits.chunk_by(|a, b| same(a.cell, b.cell)) {
+            let (tape, origin) = match run[0].cell {
+                Some(cell) => (&cell.objects()[run[0].object as usize], cell.origin),
+                None => (&object.distance, DVec4::ZERO),
+            };
+            let points: Vec<[f32; 4]> = (run.iter())
+                .map(|h| (h.p - origin).as_vec4().to_array())
+                .collect();
+            let duals = crate::vm::gradient(tape, grad, &points, 0.0);
+            g.extend(
+                duals
+                    .iter()
+                    .map(|d| DVec4::from_array(d.g.map(|x| x as f64))),
+            );
+        }
     }
     out.clear();
-    out.extend(g.iter().map(|d| {
-        let n = DVec4::from_array(d.g.map(|x| x as f64));
+    out.extend(g.iter().map(|&n| {
         let len = n.length();
         if len.is_finite() && len > 1e-12 {
             n / len
@@ -511,6 +529,23 @@ fn normals_of(
             DVec4::ZERO
         }
     }));
+}
+
+/// The gradient at `p` of object `object`'s distance, the least of its `pieces` there.
+fn piece_gradient(pieces: &Pieces, object: u32, p: DVec4) -> DVec4 {
+    let p = p.to_array();
+    let (mut least, mut at) = (f64::INFINITY, None);
+    for piece in pieces
+        .iter()
+        .filter(|piece| piece.object == f64::from(object))
+    {
+        let v = piece.form.value(p);
+        if v < least {
+            (least, at) = (v, Some(piece));
+        }
+    }
+    let g = at.and_then(|piece| piece.form.gradient(p));
+    g.map_or(DVec4::ZERO, DVec4::from_array)
 }
 
 /// Offset from a surface point along `side` (a unit normal), past the marching epsilon at the

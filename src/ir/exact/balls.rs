@@ -57,6 +57,11 @@ impl Deref for Pieces {
 }
 
 impl Pieces {
+    /// Whether some piece is of object `object`.
+    pub fn of(&self, object: usize) -> bool {
+        self.list.iter().any(|p| p.object == object as f64)
+    }
+
     /// Whether some pieces are moved balls, which `meetings` meets together.
     pub fn has_moved(&self) -> bool {
         self.moved.is_some()

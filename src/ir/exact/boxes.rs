@@ -41,6 +41,21 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     box_dist(u, v)
 }
 
+/// The gradient of the distance to the sharp box of half-extents `half` at `u` (grown or
+/// shrunk by any `r`, the same): outside, the unit vector from the nearest point of the box;
+/// inside, the normal of the nearest face (the first of a tie, as `max` takes it).
+pub fn gradient(u: [f64; 4], half: [f64; 4]) -> [f64; 4] {
+    let q: [f64; 4] = std::array::from_fn(|i| u[i].abs() - half[i]);
+    let sign = u.map(|x| if x < 0.0 { -1.0 } else { 1.0 });
+    let out = q.map(|x| x.max(0.0));
+    let len = dot(out, out).sqrt();
+    if len > 0.0 {
+        return std::array::from_fn(|i| sign[i] * out[i] / len);
+    }
+    let top = (1..4).fold(0, |k, i| if q[i] > q[k] { i } else { k });
+    std::array::from_fn(|i| if i == top { sign[i] } else { 0.0 })
+}
+
 /// The sign of `value(u, half, r)` (1 or -1), without its square root: outside the sharp
 /// box, `|max(q, 0)|` against `r` by their squares. Where the two round apart (`value` within
 /// its rounding of 0, often exactly 0), either sign is right: the point is on the surface.

@@ -180,6 +180,52 @@ impl Form {
         }
     }
 
+    /// The gradient of the distance at `p`, where it has one (none for a tiled ball): where two
+    /// faces or planes tie (an edge, a ridge) that of the first, as the tapes' `max` takes.
+    pub fn gradient(&self, p: [f64; 4]) -> Option<[f64; 4]> {
+        // `A^T v`: back from the form's coordinates.
+        let back = |rows: &Rows, v: [f64; 4]| match rows.identity {
+            true => v,
+            false => std::array::from_fn(|j| (0..4).map(|i| rows[i][j] * v[i]).sum()),
+        };
+        let local = |rows: &Rows, b: &[f64; 4]| -> [f64; 4] {
+            std::array::from_fn(|i| dot(rows[i], p) + b[i])
+        };
+        Some(match self {
+            Form::Plane { g, .. } => *g,
+            Form::Ball { rows, b, sign, .. } => {
+                let u = local(rows, b);
+                let n = dot(u, u).sqrt();
+                back(rows, u.map(|x| sign * x / n))
+            }
+            Form::Box {
+                rows,
+                b,
+                half,
+                sign,
+                ..
+            } => back(
+                rows,
+                boxes::gradient(local(rows, b), *half).map(|x| sign * x),
+            ),
+            Form::Hull { planes, sign } => {
+                let (mut top, mut g) = (f64::NEG_INFINITY, [0.0; 4]);
+                for (n, c) in planes {
+                    let v = dot(*n, p) + c;
+                    if v > top {
+                        (top, g) = (v, *n);
+                    }
+                }
+                g.map(|x| sign * x)
+            }
+            Form::Abs { f, .. } => {
+                let s = if f.value(p) >= 0.0 { 1.0 } else { -1.0 };
+                f.gradient(p)?.map(|x| s * x)
+            }
+            Form::Lattice(_) => return None,
+        })
+    }
+
     /// Whether `meet` always finds the first point or says there is none: not for a tiled
     /// ball, whose crossing of its lattice may give up.
     pub fn closed(&self) -> bool {
