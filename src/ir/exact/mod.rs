@@ -443,7 +443,9 @@ fn split(g: &Graph, dist: Id, near: Id, open: bool) -> Option<(Vec<Piece>, Membe
     let mut members = vec![];
     split_at(g, (dist, near), open, &mut members)?;
     // The running min starts at +infinity, which is no surface.
-    let start = |f: &Form| matches!(f, Form::Plane { g, c } if *g == [0.0; 4] && c.is_infinite());
+    // (Not `-inf`, a field that is inside everywhere, which every ray meets where it starts.)
+    let start =
+        |f: &Form| matches!(f, Form::Plane { g, c } if *g == [0.0; 4] && *c == f64::INFINITY);
     for (_, _, forms) in &mut members {
         if let Some(forms) = forms {
             forms.retain(|f| !start(f));

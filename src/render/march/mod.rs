@@ -605,18 +605,15 @@ fn address(cell: &Cell) -> usize {
 }
 
 /// Where the ray ends in a scene that is the few exact `pieces`: on the surface where it
-/// starts within `epsilon` of one (as in a cell of pieces), else where it first meets one,
-/// if before `tmax`.
+/// starts within `epsilon` of one (as in a cell of pieces), else where it first meets one;
+/// either only before `tmax`. It counts crossings only: a ray that passes within the
+/// epsilon of a surface without meeting it, which sphere tracing ends on, goes on.
 fn meet_pieces(pieces: &Pieces, r: &Ray, epsilon: f64) -> Hit {
     let met = meet(pieces, r.o, r.d, (r.tmax, CELLS));
     let (near, first) = (met.near(), met.first());
-    if near.0 < epsilon {
-        Hit::Surface {
-            t: 0.0,
-            object: object(near.1),
-        }
-    } else {
-        plain::end(r, first.0, object(first.1))
+    match near.0 < epsilon {
+        true => plain::end(r, 0.0, object(near.1)),
+        false => plain::end(r, first.0, object(first.1)),
     }
 }
 
