@@ -241,7 +241,7 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
     let scene = c.scene.expect("a scene");
     let frames = Frames::new(&scene);
     let fs = frames.at(0.0, Build::marcher(kind));
-    tally.exact += (fs.cells.is_none() && fs.escape.meets_every_ray()) as u64;
+    tally.exact += fs.field().pieces(false).is_some() as u64;
     let ir = hyperslice::ir::lower(&scene);
     let mut roots = vec![ir.distance];
     roots.extend(ir.interior.map(|i| i.0));

@@ -418,9 +418,8 @@ fn trace(
 
         // Normals and materials, a packet of one object's hits at a time; where every ray
         // meets the scene's exact pieces, normals from those.
-        let pieces = (fs.cells.is_none())
-            .then(|| fs.escape.pieces(false))
-            .flatten();
+        let field = fs.field();
+        let pieces = field.pieces(false);
         // By cell too, for the normals; in the same order in every run, since shading adds to
         // the pixels' sums in this order.
         pending.sort_by_key(|h| (h.object, h.cell.map(Cell::id)));

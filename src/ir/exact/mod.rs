@@ -102,9 +102,14 @@ fn local(rows: &Rows, b: &[f64; 4], p: [f64; 4], d: [f64; 4]) -> ([f64; 4], [f64
     if rows.identity {
         (std::array::from_fn(|i| p[i] + b[i]), d)
     } else {
-        let u = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
-        (u, std::array::from_fn(|i| dot(rows[i], d)))
+        (image(rows, b, p), std::array::from_fn(|i| dot(rows[i], d)))
     }
+}
+
+/// `A p + b` (the rows of `A` in `rows`).
+#[inline(always)]
+fn image(rows: &Rows, b: &[f64; 4], p: [f64; 4]) -> [f64; 4] {
+    std::array::from_fn(|i| dot(rows[i], p) + b[i])
 }
 
 pub(super) const IDENTITY: [[f64; 4]; 4] = [
@@ -164,7 +169,7 @@ impl Form {
         match self {
             Form::Plane { g, c } => dot(*g, p) + c,
             Form::Ball { rows, b, r, sign } => {
-                let u: [f64; 4] = std::array::from_fn(|i| dot(rows[i], p) + b[i]);
+                let u = image(rows, b, p);
                 sign * (dot(u, u).sqrt() - r)
             }
             Form::Box {
@@ -173,7 +178,7 @@ impl Form {
                 half,
                 r,
                 sign,
-            } => sign * boxes::value(std::array::from_fn(|i| dot(rows[i], p) + b[i]), *half, *r),
+            } => sign * boxes::value(image(rows, b, p), *half, *r),
             Form::Hull { planes, sign } => sign * hull_max(planes, p),
             Form::Abs { f, k } => f.value(p).abs() - k,
             Form::Lattice(t) => t.value(p),
@@ -188,13 +193,10 @@ impl Form {
             true => v,
             false => std::array::from_fn(|j| (0..4).map(|i| rows[i][j] * v[i]).sum()),
         };
-        let local = |rows: &Rows, b: &[f64; 4]| -> [f64; 4] {
-            std::array::from_fn(|i| dot(rows[i], p) + b[i])
-        };
         Some(match self {
             Form::Plane { g, .. } => *g,
             Form::Ball { rows, b, sign, .. } => {
-                let u = local(rows, b);
+                let u = image(rows, b, p);
                 let n = dot(u, u).sqrt();
                 back(rows, u.map(|x| sign * x / n))
             }
@@ -206,7 +208,7 @@ impl Form {
                 ..
             } => back(
                 rows,
-                boxes::gradient(local(rows, b), *half).map(|x| sign * x),
+                boxes::gradient(image(rows, b, p), *half).map(|x| sign * x),
             ),
             Form::Hull { planes, sign } => {
                 let (mut top, mut g) = (f64::NEG_INFINITY, [0.0; 4]);

@@ -77,6 +77,17 @@ pub struct Field<'a> {
     pub escape: &'a Escape,
 }
 
+impl Field<'_> {
+    /// Where the frame marches without cells and its whole scene is a few exact pieces
+    /// (`Escape::pieces`): the pieces a ray outside objects (inside them) meets, once.
+    pub fn pieces(&self, interior: bool) -> Option<&Pieces> {
+        self.cells
+            .is_none()
+            .then(|| self.escape.pieces(interior))
+            .flatten()
+    }
+}
+
 /// A ray segment to march: from `o` along the unit direction `d` up to `tmax`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Ray {
@@ -286,10 +297,10 @@ impl Marcher {
         hits.resize(rays.len(), Hit::Beyond);
         // A scene of a few exact pieces, off the cells (which `--marcher cells` keeps): each
         // ray ends where it first meets one.
-        if field.cells.is_none() && field.escape.meets_every_ray() {
+        if field.pieces(false).is_some() {
             self.state.clear();
             for (r, hit) in rays.iter().zip(hits.iter_mut()) {
-                let pieces = field.escape.pieces(r.interior).expect("a frame of pieces");
+                let pieces = field.pieces(r.interior).expect("set for both or neither");
                 *hit = meet_pieces(pieces, r, limits.epsilon);
                 self.instructions += (pieces.len() * PIECE_WORK) as u64;
             }
