@@ -531,20 +531,24 @@ fn normals_of(
 }
 
 /// The gradient at `p` of object `object`'s distance, the least of its `pieces` there.
+/// An object of one piece (most are) needs no values: each costs a square root or two.
 fn piece_gradient(pieces: &Pieces, object: u32, p: DVec4) -> DVec4 {
     let p = p.to_array();
-    let (mut least, mut at) = (f64::INFINITY, None);
-    for piece in pieces
+    let mut of = pieces
         .iter()
-        .filter(|piece| piece.object == f64::from(object))
-    {
+        .filter(|piece| piece.object == f64::from(object));
+    let Some(mut at) = of.next() else {
+        return DVec4::ZERO;
+    };
+    let mut least = None;
+    for piece in of {
+        let l = *least.get_or_insert_with(|| at.form.value(p));
         let v = piece.form.value(p);
-        if v < least {
-            (least, at) = (v, Some(piece));
+        if v < l {
+            (at, least) = (piece, Some(v));
         }
     }
-    let g = at.and_then(|piece| piece.form.gradient(p));
-    g.map_or(DVec4::ZERO, DVec4::from_array)
+    at.form.gradient(p).map_or(DVec4::ZERO, DVec4::from_array)
 }
 
 /// Offset from a surface point along `side` (a unit normal), past the marching epsilon at the

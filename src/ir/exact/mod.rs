@@ -185,6 +185,22 @@ impl Form {
         }
     }
 
+    /// The sign of `value(p)`, 1 or -1 (either on the surface): a box's without the square
+    /// root of its value, which the gradient of a shell of it would wait for.
+    fn side(&self, p: [f64; 4]) -> f64 {
+        match self {
+            Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign,
+            } => sign * boxes::sign(image(rows, b, p), *half, *r),
+            _ if self.value(p) >= 0.0 => 1.0,
+            _ => -1.0,
+        }
+    }
+
     /// The gradient of the distance at `p`, where it has one (none for a tiled ball): where two
     /// faces or planes tie (an edge, a ridge) that of the first, as the tapes' `max` takes.
     pub fn gradient(&self, p: [f64; 4]) -> Option<[f64; 4]> {
@@ -221,7 +237,7 @@ impl Form {
                 g.map(|x| sign * x)
             }
             Form::Abs { f, .. } => {
-                let s = if f.value(p) >= 0.0 { 1.0 } else { -1.0 };
+                let s = f.side(p);
                 f.gradient(p)?.map(|x| s * x)
             }
             Form::Lattice(_) => return None,
