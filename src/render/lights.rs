@@ -86,7 +86,7 @@ impl Cone {
         let depth = sin2 / (1.0 + (1.0 - sin2).sqrt());
         let d = dd.sqrt();
         (depth * depth * depth > 0.0).then(|| Cone {
-            axis: to / d,
+            axis: to * (1.0 / d),
             distance: d,
             depth,
         })
@@ -111,8 +111,10 @@ pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DV
     // `u^(2/3)` below 1 for `u < 1`, though the cube root may round past it.
     let v = cone.depth * cube_root(u.x * u.x).min(1.0);
     let (cos_t, sin_t) = (1.0 - v, (v * (2.0 - v)).sqrt());
+    // A unit vector to within its rounding, and the frame is orthogonal: it needs no
+    // normalising (a square root and a division after all the rest).
     let local = (sin_t * uniform_s2(u.y, u.z)).extend(cos_t);
-    let wo = Frame::new(cone.axis).to_world(local).normalize();
+    let wo = Frame::new(cone.axis).to_world(local);
     Some((wo, cone.pdf(2.0 - v), cone.distance))
 }
 
