@@ -620,3 +620,32 @@ fn lights_lie_outside_or_inside_only_objects_they_clear() {
     // object the light is inside) check: with every light outside, or inside, every other
     // object, they fail.
 }
+
+/// Light directions are unit vectors to within 1e-14 without being normalised: from every
+/// side of the ball (both branches of the Householder frame, axes at +-e4 among them), for
+/// cones from nearly a hemisphere down to 1e-12 rad.
+#[test]
+fn light_directions_are_unit_vectors() {
+    use rand::Rng;
+    let mut rng = Pcg64Mcg::seed_from_u64(5);
+    let fixed = [DVec4::W, -DVec4::W, DVec4::X, -DVec4::Y];
+    for k in 0..20_000 {
+        let axis = match fixed.get(k) {
+            Some(a) => *a,
+            None => {
+                DVec4::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0))).normalize()
+            }
+        };
+        let x = DVec4::from_array(std::array::from_fn(|_| rng.random_range(-3.0..3.0)));
+        let dist = 10f64.powf(rng.random_range(-1.0..3.0));
+        let radius = dist * 10f64.powf(rng.random_range(-12.0..-0.0001));
+        let Some((wo, _, _)) = sample_ball(x, x + axis * dist, radius, uniforms(&mut rng)) else {
+            panic!("no sample from {x} of a ball at {dist} of radius {radius}");
+        };
+        let off = (wo.length() - 1.0).abs();
+        assert!(
+            off < 1e-14,
+            "length off by {off} along {axis}, radius {radius}"
+        );
+    }
+}

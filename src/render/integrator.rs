@@ -544,7 +544,7 @@ fn piece_gradient(pieces: &Pieces, object: u32, p: DVec4) -> DVec4 {
     for piece in of {
         let l = *least.get_or_insert_with(|| at.form.value(p));
         let v = piece.form.value(p);
-        if v < l {
+        if v < l || (l.is_nan() && !v.is_nan()) {
             (at, least) = (piece, Some(v));
         }
     }
@@ -931,36 +931,38 @@ mod tests {
     use rand::{Rng, SeedableRng};
 
     /// An object of several pieces takes its normal from the piece that is least at the hit:
-    /// on the surface of a union of two balls (one object, two pieces), the outward normal of
-    /// the ball it is on, on both sides of the seam. With the first piece always taken, the
-    /// smaller ball's points fail.
+    /// on the surface of a union of three balls (one object, three pieces), the outward
+    /// normal of the ball it is on, on every side of the seams. It fails with the first piece
+    /// always taken, and with each piece held against the first one's value only.
     #[test]
     fn normals_come_from_the_least_piece() {
         let balls = [
             (DVec4::new(-0.8, 0.0, 0.0, 0.0), 1.0),
             (DVec4::new(0.8, 0.3, 0.0, 0.0), 0.7),
+            (DVec4::new(0.2, -0.6, 0.3, 0.0), 0.6),
         ];
         let source = "render { size = 8 x 8  spp = 1 }
             camera { from = [0, 0, -6, 0]  to = [0, 0, 0, 0] }
             object o {
                 shape = union(hypersphere(1) |> translate([-0.8, 0, 0, 0]),
-                              hypersphere(0.7) |> translate([0.8, 0.3, 0, 0]))
+                              hypersphere(0.7) |> translate([0.8, 0.3, 0, 0]),
+                              hypersphere(0.6) |> translate([0.2, -0.6, 0.3, 0]))
                 material = diffuse(rgb(0.5))
             }";
         let scene = crate::Compilation::from_source("t.4ds", source).scene;
         let scene = scene.expect("the test scene compiles");
         let fs = Frames::new(&scene).at(0.0, Build::marcher(MarcherKind::Auto));
-        let pieces = fs.escape.pieces(false).expect("two balls are exact pieces");
-        assert_eq!(pieces.len(), 2);
+        let pieces = fs.escape.pieces(false).expect("balls are exact pieces");
+        assert_eq!(pieces.len(), 3);
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
-        let mut checked = [0; 2];
-        for _ in 0..2000 {
+        let mut checked = [0; 3];
+        for _ in 0..3000 {
             let u = DVec4::from_array(std::array::from_fn(|_| rng.random_range(-1.0..1.0)));
             let u = u.normalize();
             for (i, &(c, r)) in balls.iter().enumerate() {
                 let p = c + u * r;
-                let (other, s) = balls[1 - i];
-                if (p - other).length() < s + 1e-6 {
+                let inside = |(o, s): &(DVec4, f64)| (p - *o).length() < s + 1e-6;
+                if (balls.iter().enumerate()).any(|(j, b)| j != i && inside(b)) {
                     continue;
                 }
                 let n = piece_gradient(pieces, 0, p);
