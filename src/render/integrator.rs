@@ -198,6 +198,7 @@ impl Path {
 }
 
 /// One surface hit waiting for its normal and material.
+#[derive(Clone, Copy)]
 struct Pending<'c> {
     path: u32,
     p: DVec4,
@@ -355,7 +356,7 @@ fn trace(
         interior: interior.is_some(),
     };
     // Hits hold references into this frame's cells, so they live here, not in `scratch`.
-    let mut pending: Vec<Pending> = Vec::new();
+    let (mut pending, mut spare): (Vec<Pending>, Vec<Pending>) = (Vec::new(), Vec::new());
     // Hits are found in their cells from the last hit's cell (`Cells::locate`).
     let mut near = fs.cells.as_ref().map(Cells::path);
     while !paths.is_empty() {
@@ -422,7 +423,10 @@ fn trace(
         let pieces = field.pieces(false);
         // By cell too, for the normals; in the same order in every run, since shading adds to
         // the pixels' sums in this order.
-        pending.sort_by_key(|h| (h.object, h.cell.map(Cell::id)));
+        match fs.cells {
+            Some(_) => pending.sort_by_key(|h| (h.object, h.cell.map(Cell::id))),
+            None => by_object(&mut pending, &mut spare, fs.objects.len()),
+        }
         for group in pending.chunk_by(|a, b| a.object == b.object) {
             let object = &fs.objects[group[0].object as usize];
             for chunk in group.chunks(LANES) {
@@ -478,6 +482,30 @@ fn trace(
             keep
         });
     }
+}
+
+/// `hits` (none of them in a cell) in order of object, each object's in the order they came,
+/// as a stable sort leaves them, by counting: the sort was 1.5% of the room's render.
+fn by_object<'c>(hits: &mut Vec<Pending<'c>>, spare: &mut Vec<Pending<'c>>, objects: usize) {
+    let Some(&first) = hits.first() else {
+        return;
+    };
+    let mut next = vec![0; objects];
+    for h in hits.iter() {
+        next[h.object as usize] += 1;
+    }
+    let mut start = 0;
+    for n in &mut next {
+        (*n, start) = (start, start + *n);
+    }
+    spare.clear();
+    spare.resize(hits.len(), first);
+    for h in hits.iter() {
+        let at = &mut next[h.object as usize];
+        spare[*at] = *h;
+        *at += 1;
+    }
+    std::mem::swap(hits, spare);
 }
 
 /// Unit outward normals at the hits, by forward-mode gradients of each hit's object's distance
@@ -929,6 +957,30 @@ mod tests {
     use crate::render::frame::Build;
     use crate::render::march::MarcherKind;
     use rand::{Rng, SeedableRng};
+
+    /// Counting hits into order of object leaves them as a stable sort by object does, so
+    /// that shading adds to the pixels in the same order as before.
+    #[test]
+    fn hits_by_object_are_a_stable_sort() {
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(9);
+        for (n, objects) in [(0, 3), (1, 1), (1000, 5), (300, 40)] {
+            let hits: Vec<Pending> = (0..n)
+                .map(|i| Pending {
+                    path: i,
+                    p: DVec4::ZERO,
+                    t: 0.0,
+                    object: rng.random_range(0..objects),
+                    cell: None,
+                })
+                .collect();
+            let mut want = hits.clone();
+            want.sort_by_key(|h| h.object);
+            let (mut got, mut spare) = (hits, vec![]);
+            by_object(&mut got, &mut spare, objects as usize);
+            let order = |v: &[Pending]| v.iter().map(|h| (h.object, h.path)).collect::<Vec<_>>();
+            assert_eq!(order(&got), order(&want));
+        }
+    }
 
     /// An object of several pieces takes its normal from the piece that is least at the hit:
     /// on the surface of a union of three balls (one object, three pieces), the outward
