@@ -95,32 +95,22 @@ impl Sobol {
         let sobol = point(self.shuffled, set);
         let base = self.seed.wrapping_mul(0x9c8f2d3b) ^ set;
         crate::simd::wide!({
-            let scramble = lanes([0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8], |k| {
-                base ^ k
-            });
+            let scramble = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8].map(|k| base ^ k);
             // `hash_int4`.
-            let mut h = lanes(scramble, |n| n ^ 0xe6fe3beb);
-            h = lanes(h, |n| (n ^ (n >> 16)).wrapping_mul(0x7feb352d));
-            h = lanes(h, |n| (n ^ (n >> 15)).wrapping_mul(0x846ca68b));
-            h = lanes(h, |n| n ^ (n >> 16));
-            // `owen_scramble_int4_rev`.
-            let mut n = lanes(sobol, |n| n ^ n.wrapping_mul(0x3d20adea));
-            n = std::array::from_fn(|i| n[i].wrapping_add(h[i]));
-            n = std::array::from_fn(|i| n[i].wrapping_mul((h[i] >> 16) | 1));
-            n = lanes(n, |n| n ^ n.wrapping_mul(0x05526c56));
-            n = lanes(n, |n| n ^ n.wrapping_mul(0x53a22864));
-            // `reverse_bits`, `to_f32_norm`.
-            lanes(n, |n| {
-                f32::from_bits((n.reverse_bits() >> 9) | 0x3f80_0000) - 1.0
-            })
+            let h = scramble
+                .map(|n| n ^ 0xe6fe3beb)
+                .map(|n| (n ^ (n >> 16)).wrapping_mul(0x7feb352d))
+                .map(|n| (n ^ (n >> 15)).wrapping_mul(0x846ca68b))
+                .map(|n| n ^ (n >> 16));
+            // `owen_scramble_int4_rev`, then `reverse_bits` and `to_f32_norm`.
+            let n = sobol.map(|n| n ^ n.wrapping_mul(0x3d20adea));
+            let n: [u32; 4] =
+                std::array::from_fn(|i| n[i].wrapping_add(h[i]).wrapping_mul((h[i] >> 16) | 1));
+            n.map(|n| n ^ n.wrapping_mul(0x05526c56))
+                .map(|n| n ^ n.wrapping_mul(0x53a22864))
+                .map(|n| f32::from_bits((n.reverse_bits() >> 9) | 0x3f80_0000) - 1.0)
         })
     }
-}
-
-/// `f` on each of four lanes.
-#[inline(always)]
-fn lanes<T, U>(x: [T; 4], f: impl Fn(T) -> U) -> [U; 4] {
-    x.map(f)
 }
 
 /// For each set of four dimensions, and each of the four nibbles of the (bit-reversed) index's
