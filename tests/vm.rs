@@ -1286,6 +1286,83 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
     assert!(met > 1500 && missed > 3000, "{met} met, {missed} missed");
 }
 
+/// Up to four rays met together in the lanes of a vector (`Form::meet_lanes`, and the pieces
+/// of a scene, `cells::meet_lanes`) meet every form as each ray alone does (`Form::meet`,
+/// `cells::meet`), bit for bit, for one to four rays: no lane reads another's numbers, and the
+/// balls' roots, taken without the branch that one ray alone takes past them, are the same.
+#[test]
+fn four_rays_in_lanes_meet_as_each_alone() {
+    use hyperslice::ir::exact::{Piece, Pieces, Rays};
+    use hyperslice::vm::cells;
+    let mut rng = Pcg64Mcg::seed_from_u64(44);
+    let ray = |rng: &mut Pcg64Mcg| {
+        let p = random_point(rng, 4.0);
+        let d = if rng.random_bool(0.3) {
+            // Aimed near the surfaces: grazing a rounded box's edges and corners.
+            let aim = random_point(rng, 1.5);
+            let v: [f64; 4] = std::array::from_fn(|a| aim[a] - p[a]);
+            let n = v.iter().map(|x| x * x).sum::<f64>().sqrt().max(1e-9);
+            v.map(|x| x / n)
+        } else {
+            random_unit(rng)
+        };
+        (p, d, (rng.random_range(0.5..50.0), 64))
+    };
+    let bits = |x: f64| x.to_bits();
+    let (mut met, mut total) = (0, 0);
+    for i in 0..40000 {
+        let form = random_form(&mut rng, i % 9);
+        let rays: Vec<_> = (0..1 + i % 4).map(|_| ray(&mut rng)).collect();
+        let lanes = form.meet_lanes(&Rays::new(&rays));
+        for (l, &(p, d, reach)) in rays.iter().enumerate() {
+            let one = form.meet(p, d, reach);
+            let first = lanes.first[l];
+            let four = (
+                bits(lanes.value[l]),
+                (!first.is_nan()).then_some(bits(first)),
+            );
+            let want = (bits(one.value), one.first.map(bits));
+            assert_eq!(four, want, "{form:?}, lane {l} of {}: {one:?}", rays.len());
+            assert_eq!((lanes.clear[l], lanes.cells[l]), (one.clear, one.cells));
+            (met, total) = (met + one.first.is_some() as usize, total + 1);
+        }
+    }
+    assert!(
+        met > total / 5 && met < total * 4 / 5,
+        "{met} of {total} met"
+    );
+    // A scene's pieces: several forms, moved balls among them (met eight at a time).
+    for i in 0..4000 {
+        let moved = |rng: &mut Pcg64Mcg| hyperslice::ir::exact::Form::Ball {
+            rows: std::array::from_fn(|a| std::array::from_fn(|b| (a == b) as u8 as f64)).into(),
+            b: random_point(rng, 2.0),
+            r: rng.random_range(0.1..1.0),
+            sign: 1.0,
+        };
+        let list = (0..1 + i % 6)
+            .map(|k| Piece {
+                form: match [1, 3, 5, 9, 0, 10][(i + k) % 6] {
+                    10 => moved(&mut rng),
+                    kind => random_form(&mut rng, kind),
+                },
+                object: k as f64,
+            })
+            .collect::<Vec<_>>();
+        let pieces = Pieces::from(list);
+        let rays: Vec<_> = (0..1 + i % 4).map(|_| ray(&mut rng)).collect();
+        let four = cells::meet_lanes(&pieces, &Rays::new(&rays));
+        for (l, &(p, d, reach)) in rays.iter().enumerate() {
+            let (p, d) = (glam::DVec4::from_array(p), glam::DVec4::from_array(d));
+            let one = cells::meet(&pieces, p, d, reach);
+            let key = |m: &cells::Met| {
+                let ((a, b), (c, e)) = (m.near(), m.first());
+                ([a, b, c, e, m.clear].map(bits), m.cells)
+            };
+            assert_eq!(key(&four[l]), key(&one), "{pieces:?}, lane {l}");
+        }
+    }
+}
+
 /// Boxes met from outside where the early test against the ball around them once missed
 /// them (found in review): a box with a zero row, whose `A d` is shorter than a unit vector;
 /// rays from 1e8 and 1e9 away, where `|u|^2 - (u.w)^2` cancels; and a direction along a face

@@ -19,7 +19,7 @@
 
 use super::Tape;
 use super::escape::entry;
-use crate::ir::exact::{Meeting, Piece, Pieces, partition, pieces};
+use crate::ir::exact::{Meeting, Piece, Pieces, Rays, partition, pieces};
 use crate::ir::interval::I;
 use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
@@ -692,6 +692,28 @@ pub fn meet(pieces: &Pieces, p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
     }
 }
 
+/// `meet` for up to four rays (`Rays`), lane by lane the same: planes, balls and boxes meet
+/// them in the lanes of one vector (`Form::meet_lanes`).
+pub fn meet_lanes(pieces: &Pieces, rays: &Rays) -> [Met; 4] {
+    let mut met = [Met::NONE; 4];
+    if pieces.has_moved() {
+        for (l, met) in met.iter_mut().enumerate().take(rays.live()) {
+            let (p, d, reach) = rays.ray(l);
+            *met = meet_moved(pieces, DVec4::from_array(p), DVec4::from_array(d), reach);
+        }
+        return met;
+    }
+    crate::simd::wide!({
+        for piece in pieces.iter() {
+            let m = piece.form.meet_lanes(rays);
+            for (l, met) in met.iter_mut().enumerate() {
+                met.take_numbers(piece, (m.value[l], m.first[l]), (m.clear[l], m.cells[l]));
+            }
+        }
+        met.map(Met::cut)
+    })
+}
+
 #[inline(never)]
 fn meet_moved(pieces: &Pieces, p: DVec4, d: DVec4, reach: (f64, usize)) -> Met {
     let mut met = Met::NONE;
@@ -728,13 +750,25 @@ impl Met {
     /// A piece's meeting with the ray, after those before it (ties go to the first).
     #[inline(always)]
     fn take(&mut self, piece: &Piece, m: Meeting) {
-        if m.value < self.near_d {
-            (self.near_d, self.near_object) = (m.value, piece.object);
+        let first = m.first.unwrap_or(f64::NAN);
+        self.take_numbers(piece, (m.value, first), (m.clear, m.cells));
+    }
+
+    /// `take` with the meeting's numbers, no first meeting as NaN (`Form::meet_lanes`).
+    #[inline(always)]
+    fn take_numbers(
+        &mut self,
+        piece: &Piece,
+        (value, first): (f64, f64),
+        (clear, cells): (f64, usize),
+    ) {
+        if value < self.near_d {
+            (self.near_d, self.near_object) = (value, piece.object);
         }
-        (self.clear, self.cells) = (self.clear.min(m.clear), self.cells + m.cells);
-        match m.first {
-            Some(t) if t < self.first_t => (self.first_t, self.first_object) = (t, piece.object),
-            _ => {}
+        (self.clear, self.cells) = (self.clear.min(clear), self.cells + cells);
+        // NaN is below nothing.
+        if first < self.first_t {
+            (self.first_t, self.first_object) = (first, piece.object);
         }
     }
 

@@ -6,39 +6,22 @@
 //! convex, so leaving it is entering it along the reversed ray from beyond its far side.
 
 use super::dot;
-use crate::math::kernel::box_dist;
 
-/// Where the line `u + t w` is inside the sharp box of half-extents `half`: `(enter, leave)`,
-/// or none.
+/// Four points or directions, coordinate by coordinate (`x[i][lane]`): what `meet_lanes`
+/// takes, so that every step is a loop over the lanes, which the compiler puts in the lanes of
+/// a vector.
+pub type Four = [[f64; 4]; 4];
+
+/// Four copies of `x`, for one point met as four (the lanes' code is the only one).
 #[inline(always)]
-fn slab(u: [f64; 4], w: [f64; 4], half: [f64; 4]) -> Option<(f64, f64)> {
-    let (mut enter, mut leave) = (f64::NEG_INFINITY, f64::INFINITY);
-    for i in 0..4 {
-        if half[i] < 0.0 {
-            return None;
-        }
-        // One division: the two planes' roots are within 1.5 ulp of dividing each. A
-        // direction too small to invert (zero, or subnormal) runs along the planes.
-        let inv = 1.0 / w[i];
-        if !inv.is_finite() {
-            if u[i].abs() > half[i] {
-                return None;
-            }
-            continue;
-        }
-        let (a, b) = ((-half[i] - u[i]) * inv, (half[i] - u[i]) * inv);
-        enter = enter.max(a.min(b));
-        leave = leave.min(a.max(b));
-    }
-    (enter <= leave).then_some((enter, leave))
+fn broadcast(x: [f64; 4]) -> Four {
+    x.map(|c| [c; 4])
 }
 
 /// The signed distance to `box(u) <= r`.
+#[inline(always)]
 pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
-    let mut v = [0.0; 9];
-    v[4..8].copy_from_slice(&half);
-    v[8] = r;
-    box_dist(u, v)
+    values(&broadcast(u), half, r).0[0]
 }
 
 /// The gradient of the distance to the sharp box of half-extents `half` at `u` (grown or
@@ -59,44 +42,152 @@ pub fn gradient(u: [f64; 4], half: [f64; 4]) -> [f64; 4] {
 /// The sign of `value(u, half, r)` (1 or -1), without its square root: outside the sharp
 /// box, `|max(q, 0)|` against `r` by their squares. Where the two round apart (`value` within
 /// its rounding of 0, often exactly 0), either sign is right: the point is on the surface.
+#[inline(always)]
 pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
-    let q: [f64; 4] = std::array::from_fn(|i| u[i].abs() - half[i]);
-    let top = q[0].max(q[1]).max(q[2].max(q[3]));
-    let outside = if top > 0.0 {
-        r <= 0.0 || q.map(|x| x.max(0.0)).iter().map(|x| x * x).sum::<f64>() >= r * r
-    } else {
-        top - r >= 0.0
-    };
-    if outside { 1.0 } else { -1.0 }
+    // The value's square root is dead code here, and left out.
+    values(&broadcast(u), half, r).1[0]
 }
 
-/// How the ray `u + t w` meets `box(u) <= r` (`t` in units of `w`, which a row of `A` that is
-/// zero leaves shorter than a unit vector): with `inside` false, where
-/// it first enters it from outside; with `inside` true, where it leaves it from inside (none:
-/// it never does). Inlined: its arguments passed through memory stalled their loads.
+/// Four of `f(l)`, for `l` a lane: every step of the lanes' code is one, which the compiler
+/// turns into a vector instruction (nested loops over lanes and coordinates it left scalar).
 #[inline(always)]
-pub fn meet(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), inside: bool) -> Option<f64> {
-    let grown = half.map(|h| h + r);
-    // Most rays from outside pass far from a box: first, whether they meet a ball around it
-    // at all (a ray starting outside it that heads away, or passes wide): the ball through a
-    // sharp box's corners, and for a rounded one (the sharp box grown by a ball of radius
-    // `r`) that ball grown by `r`, which lies within the ball through its grown corners
-    // (`|half| + r <= |half + r|`, the latter `r` on every axis).
-    // `w` need not be a unit vector (a row of `A` may be zero), and the ray's offset from the
-    // centre is taken apart from its start, not as `|u|^2 - b^2`, which cancels far away.
-    let rr = match r > 0.0 {
-        true => (dot(half, half).sqrt() + r).powi(2),
-        false => dot(grown, grown),
-    };
-    if !inside && dot(u, u) > rr {
-        let b = dot(u, w);
-        let s = b / dot(w, w);
-        let off: [f64; 4] = std::array::from_fn(|i| u[i] - s * w[i]);
-        if b > 0.0 || dot(off, off) > rr * (1.0 + 1e-12) {
-            return None;
-        }
+fn each<T>(f: impl Fn(usize) -> T) -> [T; 4] {
+    [f(0), f(1), f(2), f(3)]
+}
+
+/// `value` and `sign` at four points: `math::kernel::box_dist`'s operations in its order for
+/// the value (`Real::max` and `min`, which keep `x` where a comparison with NaN fails).
+#[inline(always)]
+fn values(u: &Four, half: [f64; 4], r: f64) -> ([f64; 4], [f64; 4]) {
+    let max = |x: f64, y: f64| if y > x { y } else { x };
+    let min = |x: f64, y: f64| if y < x { y } else { x };
+    let q: Four = each(|i| each(|l| u[i][l].abs() - half[i]));
+    let o: Four = each(|i| each(|l| max(q[i][l], 0.0)));
+    let length =
+        each(|l| o[0][l] * o[0][l] + o[1][l] * o[1][l] + o[2][l] * o[2][l] + o[3][l] * o[3][l]);
+    let most = each(|l| min(max(max(q[0][l], q[1][l]), max(q[2][l], q[3][l])), 0.0));
+    let value = each(|l| length[l].sqrt() + most[l] - r);
+    // Both sides' tests, without branches.
+    let p: Four = each(|i| each(|l| q[i][l].max(0.0)));
+    let far =
+        each(|l| p[0][l] * p[0][l] + p[1][l] * p[1][l] + p[2][l] * p[2][l] + p[3][l] * p[3][l]);
+    let top = each(|l| q[0][l].max(q[1][l]).max(q[2][l].max(q[3][l])));
+    let sign = each(|l| {
+        let out = top[l] > 0.0;
+        let outside = (out & ((r <= 0.0) | (far[l] >= r * r))) | (!out & (top[l] - r >= 0.0));
+        if outside { 1.0 } else { -1.0 }
+    });
+    (value, sign)
+}
+
+/// How four rays `u + t w` (`t` in units of `w`, which a row of `A` that is zero leaves shorter
+/// than a unit vector) meet `sign (box(u) - r)`, or with `shell` `Some(k)`, the shell `|sign
+/// (box(u) - r)| - k` on the side of it each starts on: each one's value at its start and
+/// the first `t` at which it reaches the surface from where the value is positive (0 where it
+/// is not; NaN where it never does), for the first `live` lanes. On its side, a ray either
+/// enters the set `box <= r'` from outside or leaves it from inside.
+#[inline(always)]
+pub fn meet_lanes(
+    (u, w): (&Four, &Four),
+    (half, r, sign): ([f64; 4], f64, f64),
+    shell: Option<f64>,
+    live: usize,
+) -> ([f64; 4], [f64; 4]) {
+    let (v, side) = values(u, half, r);
+    // The side from the sign alone, which needs no square root: the meeting then need not
+    // wait for one (`v` is only the value's).
+    let (mut value, mut grown, mut inside) = ([0.0; 4], [0.0; 4], [false; 4]);
+    for l in 0..4 {
+        let (s, k) = super::side(sign * side[l], shell);
+        let sign = s * sign;
+        (value[l], grown[l], inside[l]) = (sign * v[l] - k, r + sign * k, sign < 0.0);
     }
-    let span = slab(u, w, grown);
+    let pass = passes((u, w), half, (grown, inside));
+    let mut first = [f64::NAN; 4];
+    for l in 0..4 {
+        first[l] = if value[l] <= 0.0 { 0.0 } else { f64::NAN };
+    }
+    // Rays that start in the set or pass it by, as most do, need not span it.
+    if (0..live).all(|l| (value[l] <= 0.0) | pass[l]) {
+        return (value, first);
+    }
+    let spans = slabs((u, w), half, grown);
+    for l in (0..live).filter(|&l| ((value[l] > 0.0) | value[l].is_nan()) & !pass[l]) {
+        let lane = |x: &Four| [x[0][l], x[1][l], x[2][l], x[3][l]];
+        let ray = (lane(u), lane(w));
+        first[l] = finish(ray, (half, grown[l]), inside[l], spans[l]).unwrap_or(f64::NAN);
+    }
+    (value, first)
+}
+
+/// Whether each ray, from outside, passes the box `box <= r` by (most rays from outside
+/// pass far from it): whether it misses a ball around it at all, starting outside it and
+/// heading away, or passing wide. The ball through a sharp box's corners, and for a rounded
+/// one (the sharp box grown by a ball of radius `r`) that ball grown by `r`, which lies
+/// within the ball through its grown corners (`|half| + r <= |half + r|`, the latter `r` on
+/// every axis). `w` need not be a unit vector (a row of `A` may be zero), and the ray's
+/// offset from the centre is taken apart from its start, not as `|u|^2 - b^2`, which
+/// cancels far away.
+#[inline(always)]
+fn passes((u, w): (&Four, &Four), half: [f64; 4], (r, inside): ([f64; 4], [bool; 4])) -> [bool; 4] {
+    let corner = dot(half, half).sqrt();
+    let g: Four = each(|i| each(|l| half[i] + r[l]));
+    let grown =
+        each(|l| g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l] + g[3][l] * g[3][l]);
+    let reach = each(|l| corner + r[l]);
+    let rr = each(|l| {
+        if r[l] > 0.0 {
+            reach[l] * reach[l]
+        } else {
+            grown[l]
+        }
+    });
+    let dot = |a: &Four, b: &Four| {
+        each(|l| a[0][l] * b[0][l] + a[1][l] * b[1][l] + a[2][l] * b[2][l] + a[3][l] * b[3][l])
+    };
+    let (b, ww, uu) = (dot(u, w), dot(w, w), dot(u, u));
+    let s = each(|l| b[l] / ww[l]);
+    let off: Four = each(|i| each(|l| u[i][l] - s[l] * w[i][l]));
+    let oo = dot(&off, &off);
+    each(|l| !inside[l] & (uu[l] > rr[l]) & ((b[l] > 0.0) | (oo[l] > rr[l] * (1.0 + 1e-12))))
+}
+
+/// Where each line `u + t w` is inside the sharp box of half-extents `half + r`: `(enter,
+/// leave)`, empty (`enter > leave`, as `(inf, -inf)`) where it is nowhere. One division per
+/// coordinate: the two planes' roots are within 1.5 ulp of dividing each. A direction too
+/// small to invert (zero, or subnormal) runs along the planes.
+#[inline(always)]
+fn slabs((u, w): (&Four, &Four), half: [f64; 4], r: [f64; 4]) -> [(f64, f64); 4] {
+    let g: Four = each(|i| each(|l| half[i] + r[l]));
+    let inv: Four = each(|i| each(|l| 1.0 / w[i][l]));
+    let a: Four = each(|i| each(|l| (-g[i][l] - u[i][l]) * inv[i][l]));
+    let b: Four = each(|i| each(|l| (g[i][l] - u[i][l]) * inv[i][l]));
+    let (mut enter, mut leave) = ([f64::NEG_INFINITY; 4], [f64::INFINITY; 4]);
+    let mut empty = [false; 4];
+    for i in 0..4 {
+        let along = each(|l| !inv[i][l].is_finite());
+        empty = each(|l| empty[l] | (g[i][l] < 0.0) | (along[l] & (u[i][l].abs() > g[i][l])));
+        let near = each(|l| enter[l].max(a[i][l].min(b[i][l])));
+        let far = each(|l| leave[l].min(a[i][l].max(b[i][l])));
+        enter = each(|l| if along[l] { enter[l] } else { near[l] });
+        leave = each(|l| if along[l] { leave[l] } else { far[l] });
+    }
+    each(|l| match empty[l] {
+        true => (f64::INFINITY, f64::NEG_INFINITY),
+        false => (enter[l], leave[l]),
+    })
+}
+
+/// Where a ray that does not pass the box `box <= r` by first enters it from outside, or
+/// leaves it from `inside` (none: it never does), from where it spans the grown box.
+#[inline(always)]
+fn finish(
+    (u, w): ([f64; 4], [f64; 4]),
+    (half, r): ([f64; 4], f64),
+    inside: bool,
+    (enter, leave): (f64, f64),
+) -> Option<f64> {
+    let span = (enter <= leave).then_some((enter, leave));
     if r <= 0.0 {
         return match (span, inside) {
             (Some((enter, leave)), false) if leave >= 0.0 => Some(enter.max(0.0)),

@@ -274,33 +274,35 @@ impl Form {
         }
     }
 
-    /// `meet` for a plane, ball or box `f`, or with `shell` `Some(k)`, for `|f| - k`: on the
-    /// side of `f` the ray starts on, `f - k` or `-f - k`.
+    /// What up to four rays meet (`meet` lane by lane, with no first meeting as NaN). Planes,
+    /// balls and boxes and their shells meet them together, without branches but for a
+    /// box's last steps, so that the four run in the lanes of one vector; the other forms
+    /// one by one. One ray alone meets a box the same way, in four lanes of the same ray.
     #[inline(always)]
-    fn meet_side(&self, p: [f64; 4], d: [f64; 4], shell: Option<f64>) -> Meeting {
-        // The sign to take `f` with where it is `v`, and what to take off it.
-        let side = |v: f64| match shell {
-            Some(k) => (if v >= 0.0 { 1.0 } else { -1.0 }, k),
-            None => (1.0, 0.0),
+    pub fn meet_lanes(&self, rays: &Rays) -> Lanes {
+        let (f, shell) = match self {
+            Form::Abs { f, k } if *k >= 0.0 => (&**f, Some(*k)),
+            f => (f, None),
         };
-        let (value, first, clear) = match self {
+        let mut out = Lanes {
+            value: [f64::NAN; 4],
+            first: [f64::NAN; 4],
+            clear: [f64::INFINITY; 4],
+            cells: [0; 4],
+        };
+        match f {
             Form::Plane { g, c } => {
-                let a = dot(*g, p) + c;
-                let (s, k) = side(a);
-                let value = s * a - k;
-                let rate = s * dot(*g, d);
-                let first = (rate < 0.0).then(|| (value / -rate).max(0.0));
-                (value, first, f64::INFINITY)
+                for l in 0..4 {
+                    let (p, d) = (lane(&rays.p, l), lane(&rays.d, l));
+                    (out.value[l], out.first[l]) = plane_met(*g, *c, p, d, shell);
+                }
             }
             Form::Ball { rows, b, r, sign } => {
-                let (u, w) = local(rows, b, p, d);
-                let n = dot(u, u).sqrt();
-                let (s, k) = side(sign * (n - r));
-                // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
-                let (sign, r) = (s * sign, r + s * sign * k);
-                let first = ball_roots(u, w, r)
-                    .and_then(|(t0, t1)| [t0, t1].into_iter().find(|t| *t >= 0.0));
-                (sign * (n - r), first, f64::INFINITY)
+                let (u, w) = rays.local(rows, b);
+                for l in 0..4 {
+                    let (u, w) = (lane(&u, l), lane(&w, l));
+                    (out.value[l], out.first[l]) = ball_met::<false>(u, w, *r, *sign, shell);
+                }
             }
             Form::Box {
                 rows,
@@ -309,21 +311,50 @@ impl Form {
                 r,
                 sign,
             } => {
+                let (u, w) = rays.local(rows, b);
+                let form = (*half, *r, *sign);
+                (out.value, out.first) = boxes::meet_lanes((&u, &w), form, shell, rays.live);
+            }
+            _ => {
+                for l in 0..rays.live {
+                    let (p, d, reach) = rays.ray(l);
+                    let m = self.meet(p, d, reach);
+                    (out.value[l], out.clear[l], out.cells[l]) = (m.value, m.clear, m.cells);
+                    out.first[l] = m.first.unwrap_or(f64::NAN);
+                }
+            }
+        }
+        out
+    }
+
+    /// `meet` for a plane, ball or box `f`, or with `shell` `Some(k)`, for `|f| - k`: on the
+    /// side of `f` the ray starts on, `f - k` or `-f - k`.
+    #[inline(always)]
+    fn meet_side(&self, p: [f64; 4], d: [f64; 4], shell: Option<f64>) -> Meeting {
+        let (value, first) = match self {
+            Form::Plane { g, c } => {
+                let (value, first) = plane_met(*g, *c, p, d, shell);
+                (value, (!first.is_nan()).then_some(first))
+            }
+            Form::Ball { rows, b, r, sign } => {
                 let (u, w) = local(rows, b, p, d);
-                let v = boxes::value(u, *half, *r);
-                // The side from the sign alone, which needs no square root: the meeting
-                // then need not wait for one (`v` is only the value's).
-                let (s, k) = side(sign * boxes::sign(u, *half, *r));
-                let sign = s * sign;
-                let value = sign * v - k;
-                let first = match value > 0.0 {
-                    true => boxes::meet(u, w, (*half, r + sign * k), sign < 0.0),
-                    false => Some(0.0),
-                };
-                (value, first, f64::INFINITY)
+                let (value, first) = ball_met::<true>(u, w, *r, *sign, shell);
+                (value, (!first.is_nan()).then_some(first))
+            }
+            Form::Box {
+                rows,
+                b,
+                half,
+                r,
+                sign,
+            } => {
+                let rays = Rays::new(&[(p, d, (f64::INFINITY, 0))]);
+                let (u, w) = rays.local(rows, b);
+                let (value, first) = boxes::meet_lanes((&u, &w), (*half, *r, *sign), shell, 1);
+                (value[0], (!first[0].is_nan()).then_some(first[0]))
             }
             Form::Hull { planes, sign } => {
-                let (s, k) = side(sign * hull_max(planes, p));
+                let (s, k) = side(sign * hull_max(planes, p), shell);
                 // s f - k = sign' max_i (g_i . p + c_i - sign' k)
                 let sign = s * sign;
                 let shift = -sign * k;
@@ -351,14 +382,14 @@ impl Form {
                     // An unbounded polytope may hold the ray for good.
                     leave.is_finite().then(|| leave.max(0.0))
                 };
-                (value, first, f64::INFINITY)
+                (value, first)
             }
             Form::Abs { .. } | Form::Lattice(_) => unreachable!("meet takes these"),
         };
         Meeting {
             value,
             first,
-            clear,
+            clear: f64::INFINITY,
             cells: 0,
         }
     }
@@ -387,6 +418,147 @@ impl Form {
         }
         Some(self)
     }
+}
+
+/// The sign to take a form with where it is `v` (`f` or `-f`), and what to take off it: for a
+/// shell `|f| - k` (`shell` `Some(k)`) on the side of `f` it is on, else `f` itself.
+/// A select, not a branch (`Form::meet_lanes`).
+#[inline(always)]
+fn side(v: f64, shell: Option<f64>) -> (f64, f64) {
+    // `v >= 0` fails for NaN too, which takes the negative side.
+    let s = match (shell.is_some(), v >= 0.0) {
+        (true, false) => -1.0,
+        _ => 1.0,
+    };
+    (s, shell.unwrap_or(0.0))
+}
+
+/// `Form::meet` for the plane `g . p + c`, or with `shell` `Some(k)`, for `|g . p + c| - k`:
+/// the value and the first `t` (NaN: none), without branches (`Form::meet_lanes`).
+#[inline(always)]
+fn plane_met(g: [f64; 4], c: f64, p: [f64; 4], d: [f64; 4], shell: Option<f64>) -> (f64, f64) {
+    let a = dot(g, p) + c;
+    let (s, k) = side(a, shell);
+    let value = s * a - k;
+    let rate = s * dot(g, d);
+    let first = match rate < 0.0 {
+        true => (value / -rate).max(0.0),
+        false => f64::NAN,
+    };
+    (value, first)
+}
+
+/// `plane_met` for the ball `sign (|u| - r)` met by the ray `u + t w` (in its coordinates).
+/// With `EARLY`, a ray that passes wide of it takes a branch past the roots: one ray alone
+/// is met sooner so, four in lanes are not.
+#[inline(always)]
+fn ball_met<const EARLY: bool>(
+    u: [f64; 4],
+    w: [f64; 4],
+    r: f64,
+    sign: f64,
+    shell: Option<f64>,
+) -> (f64, f64) {
+    let n = dot(u, u).sqrt();
+    let (s, k) = side(sign * (n - r), shell);
+    // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
+    let (sign, r) = (s * sign, r + s * sign * k);
+    let (a, half_b, uu) = (dot(w, w), dot(u, w), dot(u, u));
+    if EARLY && wide(a, half_b, uu, r) {
+        return (sign * (n - r), f64::NAN);
+    }
+    let (meets, lo, hi) = roots(a, half_b, uu, r);
+    let ahead = match (lo >= 0.0, hi >= 0.0) {
+        (true, _) => lo,
+        (false, true) => hi,
+        (false, false) => f64::NAN,
+    };
+    let first = match meets & !wide(a, half_b, uu, r) {
+        true => ahead,
+        false => f64::NAN,
+    };
+    (sign * (n - r), first)
+}
+
+/// A ray to meet forms with: its point, direction and how far it looks (`Form::meet`'s
+/// `reach`).
+pub type Aimed = ([f64; 4], [f64; 4], (f64, usize));
+
+/// Up to four rays met together (`Form::meet_lanes`): their points and directions coordinate
+/// by coordinate (`p[i][lane]`), and how far each looks (`Form::meet`'s `reach`). The first
+/// `live` lanes are the rays; the rest repeat the last, and are met with them but not
+/// finished.
+#[derive(Clone, Copy, Debug)]
+pub struct Rays {
+    p: [[f64; 4]; 4],
+    d: [[f64; 4]; 4],
+    reach: [(f64, usize); 4],
+    live: usize,
+}
+
+impl Rays {
+    /// The rays (one to four).
+    #[inline(always)]
+    pub fn new(rays: &[Aimed]) -> Rays {
+        assert!((1..=4).contains(&rays.len()), "one to four rays");
+        let ray = |l: usize| rays[l.min(rays.len() - 1)];
+        Rays {
+            p: std::array::from_fn(|i| std::array::from_fn(|l| ray(l).0[i])),
+            d: std::array::from_fn(|i| std::array::from_fn(|l| ray(l).1[i])),
+            reach: std::array::from_fn(|l| ray(l).2),
+            live: rays.len(),
+        }
+    }
+
+    /// The rays in a form's coordinates `A p + b` (`local`, the same numbers), coordinate by
+    /// coordinate: the identity's rows asked once for all four.
+    #[inline(always)]
+    fn local(&self, rows: &Rows, b: &[f64; 4]) -> ([[f64; 4]; 4], [[f64; 4]; 4]) {
+        let (mut u, mut w) = (self.p, self.d);
+        if rows.identity {
+            for i in 0..4 {
+                u[i] = self.p[i].map(|x| x + b[i]);
+            }
+        } else {
+            let (p, d) = (&self.p, &self.d);
+            for i in 0..4 {
+                let m = &rows[i];
+                for l in 0..4 {
+                    u[i][l] =
+                        m[0] * p[0][l] + m[1] * p[1][l] + m[2] * p[2][l] + m[3] * p[3][l] + b[i];
+                    w[i][l] = m[0] * d[0][l] + m[1] * d[1][l] + m[2] * d[2][l] + m[3] * d[3][l];
+                }
+            }
+        }
+        (u, w)
+    }
+
+    /// How many rays there are.
+    pub fn live(&self) -> usize {
+        self.live
+    }
+
+    /// Lane `l`'s ray.
+    #[inline(always)]
+    pub fn ray(&self, l: usize) -> Aimed {
+        (lane(&self.p, l), lane(&self.d, l), self.reach[l])
+    }
+}
+
+/// Lane `l` of four vectors held coordinate by coordinate.
+#[inline(always)]
+fn lane(x: &[[f64; 4]; 4], l: usize) -> [f64; 4] {
+    [x[0][l], x[1][l], x[2][l], x[3][l]]
+}
+
+/// What up to four rays meet of a form (`Form::meet_lanes`): `Meeting` lane by lane, with no
+/// first meeting as NaN. Lanes past the rays hold no numbers.
+#[derive(Clone, Copy, Debug)]
+pub struct Lanes {
+    pub value: [f64; 4],
+    pub first: [f64; 4],
+    pub clear: [f64; 4],
+    pub cells: [usize; 4],
 }
 
 /// Where the ray `u + t w` is within `r` of the origin: the roots of `|u + t w| = r`, a

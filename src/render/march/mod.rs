@@ -22,9 +22,9 @@
 mod lanes;
 mod plain;
 
-use crate::ir::exact::{CELLS, Pieces};
+use crate::ir::exact::{CELLS, Pieces, Rays};
 use crate::vm::Tape;
-use crate::vm::cells::{Cell, Cells, epsilon_at, meet};
+use crate::vm::cells::{Cell, Cells, Met, epsilon_at, meet, meet_lanes};
 use crate::vm::escape::{Ahead, Escape, Proofs};
 use glam::DVec4;
 use lanes::Lanes;
@@ -299,10 +299,28 @@ impl Marcher {
         // ray ends where it first meets one.
         if field.pieces(false).is_some() {
             self.state.clear();
-            for (r, hit) in rays.iter().zip(hits.iter_mut()) {
-                let pieces = field.pieces(r.interior).expect("set for both or neither");
-                *hit = meet_pieces(pieces, r, limits.epsilon);
-                self.instructions += (pieces.len() * PIECE_WORK) as u64;
+            // Four at a time, where they march the same pieces (`meet_lanes`).
+            for (group, hits) in rays.chunks(4).zip(hits.chunks_mut(4)) {
+                let interior = group[0].interior;
+                let pieces = |r: &Ray| field.pieces(r.interior).expect("set for both or neither");
+                if group.iter().all(|r| r.interior == interior) {
+                    let lane = |l: usize| group[l.min(group.len() - 1)];
+                    let four: [_; 4] = std::array::from_fn(|l| {
+                        let r = lane(l);
+                        (r.o.to_array(), r.d.to_array(), (r.tmax, CELLS))
+                    });
+                    let met = meet_lanes(pieces(&group[0]), &Rays::new(&four[..group.len()]));
+                    for ((r, hit), met) in group.iter().zip(hits).zip(met) {
+                        *hit = end_met(met, r, limits.epsilon);
+                    }
+                } else {
+                    for (r, hit) in group.iter().zip(hits) {
+                        let met = meet(pieces(r), r.o, r.d, (r.tmax, CELLS));
+                        *hit = end_met(met, r, limits.epsilon);
+                    }
+                }
+                let work: usize = group.iter().map(|r| pieces(r).len() * PIECE_WORK).sum();
+                self.instructions += work as u64;
             }
             self.evaluations += rays.len() as u64;
             return;
@@ -615,12 +633,11 @@ fn address(cell: &Cell) -> usize {
     cell as *const Cell as usize
 }
 
-/// Where the ray ends in a scene that is the few exact `pieces`: on the surface where it
-/// starts within `epsilon` of one (as in a cell of pieces), else where it first meets one;
-/// either only before `tmax`. It counts crossings only: a ray that passes within the
-/// epsilon of a surface without meeting it, which sphere tracing ends on, goes on.
-fn meet_pieces(pieces: &Pieces, r: &Ray, epsilon: f64) -> Hit {
-    let met = meet(pieces, r.o, r.d, (r.tmax, CELLS));
+/// Where the ray ends in a scene that is the few exact pieces, which it meets as `met`: on
+/// the surface where it starts within `epsilon` of one (as in a cell of pieces), else where
+/// it first meets one; either only before `tmax`. It counts crossings only: a ray that passes
+/// within the epsilon of a surface without meeting it, which sphere tracing ends on, goes on.
+fn end_met(met: Met, r: &Ray, epsilon: f64) -> Hit {
     let (near, first) = (met.near(), met.first());
     match near.0 < epsilon {
         true => plain::end(r, 0.0, object(near.1)),
