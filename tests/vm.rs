@@ -1292,7 +1292,7 @@ fn exact_pieces_meet_rays_where_the_distance_reaches_zero() {
 /// balls' roots, taken without the branch that one ray alone takes past them, are the same.
 #[test]
 fn four_rays_in_lanes_meet_as_each_alone() {
-    use hyperslice::ir::exact::{Piece, Pieces, Rays};
+    use hyperslice::ir::exact::{Form, Piece, Pieces, Rays};
     use hyperslice::vm::cells;
     let mut rng = Pcg64Mcg::seed_from_u64(44);
     let ray = |rng: &mut Pcg64Mcg| {
@@ -1308,10 +1308,37 @@ fn four_rays_in_lanes_meet_as_each_alone() {
         };
         (p, d, (rng.random_range(0.5..50.0), 64))
     };
-    let bits = |x: f64| x.to_bits();
+    // NaN as one number: a NaN's bits are not kept by every operation.
+    let bits = |x: f64| {
+        if x.is_nan() {
+            f64::NAN.to_bits()
+        } else {
+            x.to_bits()
+        }
+    };
+    let identity: [[f64; 4]; 4] =
+        std::array::from_fn(|a| std::array::from_fn(|b| (a == b) as u8 as f64));
     let (mut met, mut total) = (0, 0);
     for i in 0..40000 {
-        let form = random_form(&mut rng, i % 9);
+        // Every third box or ball only moved (the identity's rows, met without products).
+        let form = match random_form(&mut rng, i % 9) {
+            Form::Box {
+                b, half, r, sign, ..
+            } if i % 3 == 0 => Form::Box {
+                rows: identity.into(),
+                b,
+                half,
+                r,
+                sign,
+            },
+            Form::Ball { b, r, sign, .. } if i % 3 == 0 => Form::Ball {
+                rows: identity.into(),
+                b,
+                r,
+                sign,
+            },
+            form => form,
+        };
         let rays: Vec<_> = (0..1 + i % 4).map(|_| ray(&mut rng)).collect();
         let lanes = form.meet_lanes(&Rays::new(&rays));
         for (l, &(p, d, reach)) in rays.iter().enumerate() {
@@ -1331,6 +1358,33 @@ fn four_rays_in_lanes_meet_as_each_alone() {
         met > total / 5 && met < total * 4 / 5,
         "{met} of {total} met"
     );
+    // Rays from where a box's value is NaN or infinite, or with no direction at all, as
+    // boxes were met before they were met in lanes: from a NaN, the ray is taken to start on
+    // the surface (it is not known to be outside), a `reach` that is no escape; from
+    // infinity towards the box, it meets it at infinity.
+    let unit = Form::Box {
+        rows: identity.into(),
+        b: [0.0; 4],
+        half: [1.0; 4],
+        r: 0.0,
+        sign: 1.0,
+    };
+    let cases: [([f64; 4], [f64; 4], Option<f64>); 4] = [
+        ([f64::NAN, 5.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0], Some(0.0)),
+        (
+            [f64::INFINITY, 0.0, 0.0, 0.0],
+            [-1.0, 0.0, 0.0, 0.0],
+            Some(f64::INFINITY),
+        ),
+        ([-3.0, 0.0, 0.0, 0.0], [0.0; 4], None),
+        ([0.5, 0.0, 0.0, 0.0], [0.0; 4], Some(0.0)),
+    ];
+    for (p, d, want) in cases {
+        let m = unit.meet(p, d, (f64::INFINITY, 0));
+        assert_eq!(m.first, want, "from {p:?} along {d:?}: {m:?}");
+        let lanes = unit.meet_lanes(&Rays::new(&[(p, d, (f64::INFINITY, 0)); 3]));
+        assert!((0..3).all(|l| (!lanes.first[l].is_nan()).then_some(lanes.first[l]) == want));
+    }
     // A scene's pieces: several forms, moved balls among them (met eight at a time).
     for i in 0..4000 {
         let moved = |rng: &mut Pcg64Mcg| hyperslice::ir::exact::Form::Ball {

@@ -55,6 +55,12 @@ fn each<T>(f: impl Fn(usize) -> T) -> [T; 4] {
     [f(0), f(1), f(2), f(3)]
 }
 
+/// `a . b` lane by lane, in `dot`'s order.
+#[inline(always)]
+fn dots(a: &Four, b: &Four) -> [f64; 4] {
+    each(|l| a[0][l] * b[0][l] + a[1][l] * b[1][l] + a[2][l] * b[2][l] + a[3][l] * b[3][l])
+}
+
 /// `value` and `sign` at four points: `math::kernel::box_dist`'s operations in its order for
 /// the value (`Real::max` and `min`, which keep `x` where a comparison with NaN fails).
 #[inline(always)]
@@ -63,14 +69,13 @@ fn values(u: &Four, half: [f64; 4], r: f64) -> ([f64; 4], [f64; 4]) {
     let min = |x: f64, y: f64| if y < x { y } else { x };
     let q: Four = each(|i| each(|l| u[i][l].abs() - half[i]));
     let o: Four = each(|i| each(|l| max(q[i][l], 0.0)));
-    let length =
-        each(|l| o[0][l] * o[0][l] + o[1][l] * o[1][l] + o[2][l] * o[2][l] + o[3][l] * o[3][l]);
+    let length = dots(&o, &o);
     let most = each(|l| min(max(max(q[0][l], q[1][l]), max(q[2][l], q[3][l])), 0.0));
     let value = each(|l| length[l].sqrt() + most[l] - r);
-    // Both sides' tests, without branches.
+    // The sign's own parts, with `f64::max`, which takes the other number where one is NaN
+    // (as `sign` always has); both sides' tests, without branches.
     let p: Four = each(|i| each(|l| q[i][l].max(0.0)));
-    let far =
-        each(|l| p[0][l] * p[0][l] + p[1][l] * p[1][l] + p[2][l] * p[2][l] + p[3][l] * p[3][l]);
+    let far = dots(&p, &p);
     let top = each(|l| q[0][l].max(q[1][l]).max(q[2][l].max(q[3][l])));
     let sign = each(|l| {
         let out = top[l] > 0.0;
@@ -84,7 +89,7 @@ fn values(u: &Four, half: [f64; 4], r: f64) -> ([f64; 4], [f64; 4]) {
 /// than a unit vector) meet `sign (box(u) - r)`, or with `shell` `Some(k)`, the shell `|sign
 /// (box(u) - r)| - k` on the side of it each starts on: each one's value at its start and
 /// the first `t` at which it reaches the surface from where the value is positive (0 where it
-/// is not; NaN where it never does), for the first `live` lanes. On its side, a ray either
+/// is not positive; NaN where it never does), for the first `live` lanes. On its side, a ray either
 /// enters the set `box <= r'` from outside or leaves it from inside.
 #[inline(always)]
 pub fn meet_lanes(
@@ -103,18 +108,17 @@ pub fn meet_lanes(
         (value[l], grown[l], inside[l]) = (sign * v[l] - k, r + sign * k, sign < 0.0);
     }
     let pass = passes((u, w), half, (grown, inside));
-    let mut first = [f64::NAN; 4];
-    for l in 0..4 {
-        first[l] = if value[l] <= 0.0 { 0.0 } else { f64::NAN };
-    }
+    // A ray meets the surface where it starts unless the value there is positive (a NaN
+    // value too: where it starts is not known to be outside).
+    let ahead = each(|l| value[l] > 0.0);
+    let mut first = each(|l| if ahead[l] { f64::NAN } else { 0.0 });
     // Rays that start in the set or pass it by, as most do, need not span it.
-    if (0..live).all(|l| (value[l] <= 0.0) | pass[l]) {
+    if (0..live).all(|l| !ahead[l] | pass[l]) {
         return (value, first);
     }
     let spans = slabs((u, w), half, grown);
-    for l in (0..live).filter(|&l| ((value[l] > 0.0) | value[l].is_nan()) & !pass[l]) {
-        let lane = |x: &Four| [x[0][l], x[1][l], x[2][l], x[3][l]];
-        let ray = (lane(u), lane(w));
+    for l in (0..live).filter(|&l| ahead[l] & !pass[l]) {
+        let ray = (super::lane(u, l), super::lane(w, l));
         first[l] = finish(ray, (half, grown[l]), inside[l], spans[l]).unwrap_or(f64::NAN);
     }
     (value, first)
@@ -132,8 +136,7 @@ pub fn meet_lanes(
 fn passes((u, w): (&Four, &Four), half: [f64; 4], (r, inside): ([f64; 4], [bool; 4])) -> [bool; 4] {
     let corner = dot(half, half).sqrt();
     let g: Four = each(|i| each(|l| half[i] + r[l]));
-    let grown =
-        each(|l| g[0][l] * g[0][l] + g[1][l] * g[1][l] + g[2][l] * g[2][l] + g[3][l] * g[3][l]);
+    let grown = dots(&g, &g);
     let reach = each(|l| corner + r[l]);
     let rr = each(|l| {
         if r[l] > 0.0 {
@@ -142,13 +145,10 @@ fn passes((u, w): (&Four, &Four), half: [f64; 4], (r, inside): ([f64; 4], [bool;
             grown[l]
         }
     });
-    let dot = |a: &Four, b: &Four| {
-        each(|l| a[0][l] * b[0][l] + a[1][l] * b[1][l] + a[2][l] * b[2][l] + a[3][l] * b[3][l])
-    };
-    let (b, ww, uu) = (dot(u, w), dot(w, w), dot(u, u));
+    let (b, ww, uu) = (dots(u, w), dots(w, w), dots(u, u));
     let s = each(|l| b[l] / ww[l]);
     let off: Four = each(|i| each(|l| u[i][l] - s[l] * w[i][l]));
-    let oo = dot(&off, &off);
+    let oo = dots(&off, &off);
     each(|l| !inside[l] & (uu[l] > rr[l]) & ((b[l] > 0.0) | (oo[l] > rr[l] * (1.0 + 1e-12))))
 }
 
@@ -281,6 +281,24 @@ mod tests {
             if v.abs() > 1e-14 * scale {
                 prop_assert_eq!(sign(u, half, r), v.signum(), "value {}", v);
             }
+        }
+    }
+
+    proptest! {
+        /// `value` is the VM's box distance (`math::kernel::box_dist`, which the scene's tapes
+        /// evaluate) bit for bit, at points inside, outside and on the faces, for sharp,
+        /// shrunk and rounded boxes: the lanes' copy of its operations keeps their order.
+        #[test]
+        fn value_is_the_kernels(
+            u in prop::array::uniform4(prop_oneof![-4.0..4.0f64, Just(1.0), Just(-0.0)]),
+            half in prop::array::uniform4(0.0..3.0f64),
+            r in -0.5..1.5f64,
+        ) {
+            let mut v = [0.0; 9];
+            v[4..8].copy_from_slice(&half);
+            v[8] = r;
+            let kernel = crate::math::kernel::box_dist(u, v);
+            prop_assert_eq!(value(u, half, r).to_bits(), kernel.to_bits());
         }
     }
 

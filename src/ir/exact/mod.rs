@@ -486,12 +486,11 @@ pub type Aimed = ([f64; 4], [f64; 4], (f64, usize));
 
 /// Up to four rays met together (`Form::meet_lanes`): their points and directions coordinate
 /// by coordinate (`p[i][lane]`), and how far each looks (`Form::meet`'s `reach`). The first
-/// `live` lanes are the rays; the rest repeat the last, and are met with them but not
-/// finished.
+/// `live` lanes are the rays; the rest repeat the last, and their numbers are not used.
 #[derive(Clone, Copy, Debug)]
 pub struct Rays {
-    p: [[f64; 4]; 4],
-    d: [[f64; 4]; 4],
+    p: boxes::Four,
+    d: boxes::Four,
     reach: [(f64, usize); 4],
     live: usize,
 }
@@ -500,20 +499,26 @@ impl Rays {
     /// The rays (one to four).
     #[inline(always)]
     pub fn new(rays: &[Aimed]) -> Rays {
-        assert!((1..=4).contains(&rays.len()), "one to four rays");
-        let ray = |l: usize| rays[l.min(rays.len() - 1)];
+        Rays::of(rays.len(), |l| rays[l])
+    }
+
+    /// The `live` rays (one to four) `ray(0)`, `ray(1)`, ...
+    #[inline(always)]
+    pub fn of(live: usize, ray: impl Fn(usize) -> Aimed) -> Rays {
+        assert!((1..=4).contains(&live), "one to four rays");
+        let rays: [Aimed; 4] = std::array::from_fn(|l| ray(l.min(live - 1)));
         Rays {
-            p: std::array::from_fn(|i| std::array::from_fn(|l| ray(l).0[i])),
-            d: std::array::from_fn(|i| std::array::from_fn(|l| ray(l).1[i])),
-            reach: std::array::from_fn(|l| ray(l).2),
-            live: rays.len(),
+            p: std::array::from_fn(|i| std::array::from_fn(|l| rays[l].0[i])),
+            d: std::array::from_fn(|i| std::array::from_fn(|l| rays[l].1[i])),
+            reach: rays.map(|r| r.2),
+            live,
         }
     }
 
     /// The rays in a form's coordinates `A p + b` (`local`, the same numbers), coordinate by
     /// coordinate: the identity's rows asked once for all four.
     #[inline(always)]
-    fn local(&self, rows: &Rows, b: &[f64; 4]) -> ([[f64; 4]; 4], [[f64; 4]; 4]) {
+    fn local(&self, rows: &Rows, b: &[f64; 4]) -> (boxes::Four, boxes::Four) {
         let (mut u, mut w) = (self.p, self.d);
         if rows.identity {
             for i in 0..4 {
@@ -547,12 +552,12 @@ impl Rays {
 
 /// Lane `l` of four vectors held coordinate by coordinate.
 #[inline(always)]
-fn lane(x: &[[f64; 4]; 4], l: usize) -> [f64; 4] {
+fn lane(x: &boxes::Four, l: usize) -> [f64; 4] {
     [x[0][l], x[1][l], x[2][l], x[3][l]]
 }
 
 /// What up to four rays meet of a form (`Form::meet_lanes`): `Meeting` lane by lane, with no
-/// first meeting as NaN. Lanes past the rays hold no numbers.
+/// first meeting as NaN. The numbers of lanes past the rays mean nothing.
 #[derive(Clone, Copy, Debug)]
 pub struct Lanes {
     pub value: [f64; 4],

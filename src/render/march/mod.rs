@@ -304,12 +304,11 @@ impl Marcher {
                 let interior = group[0].interior;
                 let pieces = |r: &Ray| field.pieces(r.interior).expect("set for both or neither");
                 if group.iter().all(|r| r.interior == interior) {
-                    let lane = |l: usize| group[l.min(group.len() - 1)];
-                    let four: [_; 4] = std::array::from_fn(|l| {
-                        let r = lane(l);
+                    let four = Rays::of(group.len(), |l| {
+                        let r = &group[l];
                         (r.o.to_array(), r.d.to_array(), (r.tmax, CELLS))
                     });
-                    let met = meet_lanes(pieces(&group[0]), &Rays::new(&four[..group.len()]));
+                    let met = meet_lanes(pieces(&group[0]), &four);
                     for ((r, hit), met) in group.iter().zip(hits).zip(met) {
                         *hit = end_met(met, r, limits.epsilon);
                     }
