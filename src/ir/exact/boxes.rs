@@ -107,7 +107,9 @@ pub fn meet_lanes(
         let sign = s * sign;
         (value[l], grown[l], inside[l]) = (sign * v[l] - k, r + sign * k, sign < 0.0);
     }
-    let pass = passes((u, w), half, (grown, inside));
+    // The sharp box each ray meets, grown by its `r'`: half-extents lane by lane.
+    let g: Four = each(|i| each(|l| half[i] + grown[l]));
+    let pass = passes((u, w), (half, &g), (grown, inside));
     // A ray meets the surface where it starts unless the value there is positive (a NaN
     // value too: where it starts is not known to be outside).
     let ahead = each(|l| value[l] > 0.0);
@@ -116,7 +118,7 @@ pub fn meet_lanes(
     if (0..live).all(|l| !ahead[l] | pass[l]) {
         return (value, first);
     }
-    let spans = slabs((u, w), half, grown);
+    let spans = slabs((u, w), &g);
     for l in (0..live).filter(|&l| ahead[l] & !pass[l]) {
         let ray = (super::lane(u, l), super::lane(w, l));
         first[l] = finish(ray, (half, grown[l]), inside[l], spans[l]).unwrap_or(f64::NAN);
@@ -131,12 +133,15 @@ pub fn meet_lanes(
 /// within the ball through its grown corners (`|half| + r <= |half + r|`, the latter `r` on
 /// every axis). `w` need not be a unit vector (a row of `A` may be zero), and the ray's
 /// offset from the centre is taken apart from its start, not as `|u|^2 - b^2`, which
-/// cancels far away.
+/// cancels far away. `g` is `half + r`, lane by lane.
 #[inline(always)]
-fn passes((u, w): (&Four, &Four), half: [f64; 4], (r, inside): ([f64; 4], [bool; 4])) -> [bool; 4] {
+fn passes(
+    (u, w): (&Four, &Four),
+    (half, g): ([f64; 4], &Four),
+    (r, inside): ([f64; 4], [bool; 4]),
+) -> [bool; 4] {
     let corner = dot(half, half).sqrt();
-    let g: Four = each(|i| each(|l| half[i] + r[l]));
-    let grown = dots(&g, &g);
+    let grown = dots(g, g);
     let reach = each(|l| corner + r[l]);
     let rr = each(|l| {
         if r[l] > 0.0 {
@@ -152,13 +157,12 @@ fn passes((u, w): (&Four, &Four), half: [f64; 4], (r, inside): ([f64; 4], [bool;
     each(|l| !inside[l] & (uu[l] > rr[l]) & ((b[l] > 0.0) | (oo[l] > rr[l] * (1.0 + 1e-12))))
 }
 
-/// Where each line `u + t w` is inside the sharp box of half-extents `half + r`: `(enter,
+/// Where each line `u + t w` is inside the sharp box of half-extents `g`: `(enter,
 /// leave)`, empty (`enter > leave`, as `(inf, -inf)`) where it is nowhere. One division per
 /// coordinate: the two planes' roots are within 1.5 ulp of dividing each. A direction too
 /// small to invert (zero, or subnormal) runs along the planes.
 #[inline(always)]
-fn slabs((u, w): (&Four, &Four), half: [f64; 4], r: [f64; 4]) -> [(f64, f64); 4] {
-    let g: Four = each(|i| each(|l| half[i] + r[l]));
+fn slabs((u, w): (&Four, &Four), g: &Four) -> [(f64, f64); 4] {
     let inv: Four = each(|i| each(|l| 1.0 / w[i][l]));
     let a: Four = each(|i| each(|l| (-g[i][l] - u[i][l]) * inv[i][l]));
     let b: Four = each(|i| each(|l| (g[i][l] - u[i][l]) * inv[i][l]));
