@@ -719,7 +719,7 @@ fn bsdf_albedo_at_most_one() {
         for k in 0..64 {
             let theta = (k as f64 + 0.5) / 64.0 * PI / 2.0;
             let (st, ct) = theta.sin_cos();
-            let wi = (st * uniform_s2(rng.random(), rng.random())).extend(ct);
+            let wi = (st * DVec3::from_array(uniform_s2(rng.random(), rng.random()))).extend(ct);
             let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
             for _ in 0..n {
                 let w = bsdf

@@ -5,6 +5,7 @@
 
 pub mod color;
 pub mod kernel;
+pub mod lanes;
 mod op;
 pub mod plane;
 

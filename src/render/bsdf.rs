@@ -58,6 +58,22 @@ pub struct Lambert {
     pub albedo: DVec3,
 }
 
+impl Lambert {
+    /// The sample `sample` makes of `wo`, a `cosine_hemisphere` direction (drawn four at a
+    /// time by the integrator's diffuse vertices).
+    pub fn sampled(&self, wi: DVec4, wo: DVec4) -> Option<BsdfSample> {
+        if wi.w <= 0.0 {
+            return None;
+        }
+        (wo.w > 0.0).then(|| BsdfSample {
+            wo,
+            weight: self.albedo,
+            pdf: cosine_hemisphere_pdf(wo.w),
+            delta: false,
+        })
+    }
+}
+
 impl Bsdf for Lambert {
     fn eval(&self, wi: DVec4, wo: DVec4) -> DVec3 {
         if wi.w > 0.0 && wo.w > 0.0 {
@@ -69,16 +85,7 @@ impl Bsdf for Lambert {
 
     /// Malley cosine sampling: the weight is exactly `albedo`.
     fn sample(&self, wi: DVec4, u: DVec3) -> Option<BsdfSample> {
-        if wi.w <= 0.0 {
-            return None;
-        }
-        let wo = cosine_hemisphere(u);
-        (wo.w > 0.0).then(|| BsdfSample {
-            wo,
-            weight: self.albedo,
-            pdf: cosine_hemisphere_pdf(wo.w),
-            delta: false,
-        })
+        self.sampled(wi, DVec4::from_array(cosine_hemisphere(u.to_array())))
     }
 
     fn pdf(&self, wi: DVec4, wo: DVec4) -> f64 {
@@ -291,7 +298,7 @@ impl Ggx {
         let t = (-vs.w * dir).extend(sin_s);
         let (b1, b2) = dir.any_orthonormal_pair();
         // 3-4. A uniform point of the 3-ball, squeezed along t onto the visible part.
-        let p = uniform_ball3(u);
+        let p = DVec3::from_array(uniform_ball3(u.to_array()));
         let (p1, p2) = (p.y, p.z);
         let half_chord = (1.0 - p1 * p1 - p2 * p2).max(0.0).sqrt();
         let s = 0.5 * (1.0 + vs.w);

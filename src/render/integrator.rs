@@ -24,9 +24,9 @@
 //! draws its random numbers from the path's own stream, so images stay independent of the
 //! thread count; with it off no extra numbers are drawn and the estimator is plain BSDF sampling.
 
-use super::bsdf::{Bsdf, Dielectric, Ggx, Lambert, Mirror};
+use super::bsdf::{Bsdf, BsdfSample, Dielectric, Ggx, Mirror};
 use super::frame::{FrameObject, FrameScene, Shot};
-use super::lights::{Lights, Side};
+use super::lights::{LightSample, Lights, Side};
 use super::march::{Field, Hit, Marcher, Ray};
 use super::material::{Medium, Surface};
 use super::phase::{HenyeyGreenstein, PhaseFunction};
@@ -37,6 +37,8 @@ use crate::ir::exact::Pieces;
 use crate::vm::cells::{Cell, Cells, hit_epsilon};
 use crate::vm::{Dual, LANES, Regs, run};
 use glam::{DVec3, DVec4};
+
+mod diffuse;
 
 /// The settings of the light transport.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -164,6 +166,7 @@ impl Stack {
     }
 }
 
+#[derive(Clone, Debug)]
 struct Path {
     /// Index of the pixel within the tile.
     pixel: u32,
@@ -212,6 +215,7 @@ struct Pending<'c> {
 /// A light sample waiting for its shadow ray: what it adds to path `path` if the ray's first
 /// hit is light `light` of the frame's `Lights` (whose ball the ray enters `enter` along it),
 /// before attenuation by `exp(-sigma_t t)`.
+#[derive(Debug, PartialEq)]
 struct Shadow {
     path: u32,
     light: u32,
@@ -357,6 +361,7 @@ fn trace(
     };
     // Hits hold references into this frame's cells, so they live here, not in `scratch`.
     let (mut pending, mut spare): (Vec<Pending>, Vec<Pending>) = (Vec::new(), Vec::new());
+    let diffuse = &mut Vec::new();
     // Hits are found in their cells from the last hit's cell (`Cells::locate`).
     let mut near = fs.cells.as_ref().map(Cells::path);
     while !paths.is_empty() {
@@ -386,6 +391,7 @@ fn trace(
 
         // Resolve everything but surface hits; collect those.
         pending.clear();
+        diffuse.clear();
         shadows.pending.clear();
         shadows.rays.clear();
         let mut alive = vec![true; paths.len()];
@@ -453,11 +459,12 @@ fn trace(
                 for ((h, &n), &surface) in chunk.iter().zip(normals.iter()).zip(surfaces.iter()) {
                     let path = &mut paths[h.path as usize];
                     let pixel = &mut sums[path.pixel as usize];
-                    let alive_now = shade(path, h, n, surface, fs, s, &nee, shadows, pixel);
-                    alive[h.path as usize] = alive_now;
+                    let queues = (&mut *shadows, &mut *diffuse);
+                    alive[h.path as usize] = shade(path, h, n, surface, fs, s, &nee, queues, pixel);
                 }
             }
         }
+        diffuse::scatter(diffuse, (paths, &mut alive), fs, s, &nee, shadows);
 
         // Shadow rays of the light samples taken above, all at once.
         if !shadows.pending.is_empty() {
@@ -633,11 +640,29 @@ impl Nee<'_> {
         let Some(lights) = self.lights else {
             return false;
         };
-        let select = path.sampler.get();
-        let u = path.u3();
+        let (select, u) = (path.sampler.get(), path.u3());
         path.mis_from = x;
-        let Some(ls) = lights.sample(x, select, u) else {
-            return true;
+        let ls = lights.sample(x, select, u);
+        self.queue(lights, path, index, ls, origin, medium, lobe, shadows);
+        true
+    }
+
+    /// The rest of `sample` once the light sample `ls` is drawn (none: nothing to send):
+    /// queue its shadow ray where it can add anything.
+    #[allow(clippy::too_many_arguments)]
+    fn queue(
+        &self,
+        lights: &Lights,
+        path: &Path,
+        index: u32,
+        ls: Option<LightSample>,
+        origin: DVec4,
+        medium: Medium,
+        lobe: impl Fn(DVec4) -> (DVec3, f64),
+        shadows: &mut Shadows,
+    ) {
+        let Some(ls) = ls else {
+            return;
         };
         // The shadow ray meets a surface first where it must leave an object the light lies
         // wholly outside, or enter one it lies wholly inside: it is occluded, unmarched.
@@ -648,12 +673,12 @@ impl Nee<'_> {
             .any(|e| lights.side(ls.light, e.0) == Side::Outside)
             || (lights.enclosing(ls.light).iter()).any(|&o| stack.contains(o) == Some(false))
         {
-            return true;
+            return;
         }
         let (f, pdf_bsdf) = lobe(ls.wo);
         // Nothing towards the light (below the surface, or a NaN from a degenerate lobe).
         if f.max_element().is_nan() || f.max_element() <= 0.0 {
-            return true;
+            return;
         }
         // Power heuristic: L f / p_light * p_light^2 / (p_light^2 + p_bsdf^2), written so
         // that a tiny cone's huge pdf cannot overflow.
@@ -661,11 +686,11 @@ impl Nee<'_> {
         let light = &lights.lights()[ls.light];
         let contribution = path.beta * f * light.radiance / (ls.pdf * (1.0 + ratio * ratio));
         if !contribution.is_finite() || contribution.max_element() <= 0.0 {
-            return true;
+            return;
         }
         // The ray from `origin`, a little off `x`, may just miss the ball: it sees nothing.
         let Some(enter) = enter_ball(origin, ls.wo, light.center, light.radius) else {
-            return true;
+            return;
         };
         shadows.pending.push(Shadow {
             path: index,
@@ -682,7 +707,6 @@ impl Nee<'_> {
             tmax: ls.distance + light.radius,
             interior: path.stack.len > 0 && self.interior,
         });
-        true
     }
 
     /// The MIS weight of emission `path` reaches on a BSDF-sampled segment at `object`.
@@ -813,7 +837,8 @@ fn scatter_in_medium(
     survive(path, s, false)
 }
 
-/// Shade one surface hit; false ends the path.
+/// Shade one surface hit; false ends the path. A diffuse vertex is left in `diffuse` for
+/// `diffuse::scatter`, which decides whether its path goes on.
 #[allow(clippy::too_many_arguments)]
 fn shade(
     path: &mut Path,
@@ -823,7 +848,7 @@ fn shade(
     fs: &FrameScene,
     s: &Settings,
     nee: &Nee,
-    shadows: &mut Shadows,
+    (shadows, diffuse): (&mut Shadows, &mut Vec<diffuse::Vertex>),
     pixel: &mut PixelSums,
 ) -> bool {
     // The hit's precision (on the interior tape, for a ray inside an object).
@@ -901,8 +926,16 @@ fn shade(
             Some(true)
         }
         Surface::Diffuse { albedo, .. } => {
-            let light = Some((fs, nee, h.path, &mut *shadows));
-            reflect(path, h.p, n, &Lambert { albedo }, u, eps, light)
+            let (path, p) = (h.path, h.p);
+            diffuse.push(diffuse::Vertex {
+                path,
+                p,
+                n,
+                eps,
+                u,
+                albedo,
+            });
+            return true;
         }
         Surface::Mirror { tint } => reflect(path, h.p, n, &Mirror { tint }, u, eps, None),
         Surface::Shiny { roughness, color } => {
@@ -920,19 +953,18 @@ type LightSampling<'a, 'b> = Option<(&'a FrameScene, &'a Nee<'b>, u32, &'a mut S
 /// Scatter off a one-sided reflector, its frame turned towards the side the path came from;
 /// with `light`, take a light sample there first (the lobe must not be a delta). Returns
 /// whether the sampled lobe is a delta, or `None` for a zero-weight sample (the path ends).
-fn reflect(
+fn reflect<B: Bsdf>(
     path: &mut Path,
     p: DVec4,
     n: DVec4,
-    bsdf: &dyn Bsdf,
+    bsdf: &B,
     u: DVec3,
     eps: f64,
     light: LightSampling,
 ) -> Option<bool> {
-    let n = if path.d.dot(n) < 0.0 { n } else { -n };
+    let (n, o) = facing(path, p, n, eps);
     let frame = Frame::new(n);
     let wi = frame.to_local(-path.d);
-    let o = leave(p, n, eps);
     let mut sampled = false;
     if let Some((fs, nee, index, shadows)) = light {
         let m = path.stack.medium(fs.medium);
@@ -943,11 +975,24 @@ fn reflect(
         sampled = nee.sample(path, index, p, o, m, lobe, shadows);
     }
     let b = bsdf.sample(wi, u)?;
+    let d = frame.to_world(b.wo).normalize();
+    Some(scattered(path, b, d, o, sampled))
+}
+
+/// The normal `n` at `p` turned towards the side the path comes from, and the point the path
+/// leaves from on that side.
+fn facing(path: &Path, p: DVec4, n: DVec4, eps: f64) -> (DVec4, DVec4) {
+    let n = if path.d.dot(n) < 0.0 { n } else { -n };
+    (n, leave(p, n, eps))
+}
+
+/// The path goes on from `o` along the BSDF's sample `b`, whose direction in the world is `d`;
+/// `sampled`: a light sample was taken at the vertex. Returns whether the lobe is a delta.
+fn scattered(path: &mut Path, b: BsdfSample, d: DVec4, o: DVec4, sampled: bool) -> bool {
     path.beta *= b.weight;
-    path.d = frame.to_world(b.wo).normalize();
-    path.o = o;
+    (path.d, path.o) = (d, o);
     path.mis_pdf = if sampled && !b.delta { b.pdf } else { 0.0 };
-    Some(b.delta)
+    b.delta
 }
 
 #[cfg(test)]

@@ -28,6 +28,7 @@
 //! equal samples is unchanged, and its frames render about 11% faster).
 
 use super::sampling::{Frame, cube_root, uniform_s2};
+use crate::math::lanes::{Lane, dot, scale};
 use glam::{DVec3, DVec4};
 use std::f64::consts::PI;
 
@@ -60,36 +61,38 @@ pub struct LightSample {
 
 /// The cone a ball fills, seen from a point outside it: its axis, the distance to the centre
 /// and `1 - cos a`.
-struct Cone {
-    axis: DVec4,
-    distance: f64,
+/// In each lane, for `Cone<F4>`.
+struct Cone<L> {
+    axis: [L; 4],
+    distance: L,
     /// `1 - cos a`, from `sin^2 a = r^2 / d^2` as `sin^2 a / (1 + cos a)` (no cancellation in a
     /// tiny cone).
-    depth: f64,
+    depth: L,
 }
 
-impl Cone {
-    /// The cone of the ball (`center`, `r`) seen from `x`; `None` when `x` is inside the ball or
+impl<L: Lane> Cone<L> {
+    /// The cone of the ball (`center`, `r`) seen from `x`, where the mask holds; not where `x` is inside the ball or
     /// on its surface, the values are not usable, or the cone is so narrow that `depth^3`
     /// underflows to 0 (below about 1e-54 rad), which keeps the pdf below about 1e162: no
     /// light sample is drawn there, and BSDF samples that meet the light take all the weight
     /// (`ball_pdf` is 0), as from inside it. The square roots of `d^2` and of `cos^2 a` do not
     /// wait for each other. (`r^2` loses precision for radii below about 1e-154, scenes far
     /// below any marching epsilon.)
-    fn of(x: DVec4, center: DVec4, r: f64) -> Option<Cone> {
-        let to = center - x;
-        let dd = to.length_squared();
-        if !(dd.is_finite() && r > 0.0 && dd > r * r) {
-            return None;
-        }
+    #[inline(always)]
+    fn of(x: [L; 4], center: [L; 4], r: L) -> (L::Mask, Cone<L>) {
+        let one = L::splat(1.0);
+        let to: [L; 4] = std::array::from_fn(|i| center[i] - x[i]);
+        let dd = dot(to, to);
+        let outside = dd.is_finite() & r.gt(L::splat(0.0)) & dd.gt(r * r);
         let sin2 = r * r / dd;
-        let depth = sin2 / (1.0 + (1.0 - sin2).sqrt());
+        let depth = sin2 / (one + (one - sin2).sqrt());
         let d = dd.sqrt();
-        (depth * depth * depth > 0.0).then(|| Cone {
-            axis: to * (1.0 / d),
+        let cone = Cone {
+            axis: scale(to, one / d),
             distance: d,
             depth,
-        })
+        };
+        (outside & (depth * depth * depth).gt(L::splat(0.0)), cone)
     }
 
     /// The solid-angle pdf of a direction at `cos theta` from the axis (`1 + cos theta` given):
@@ -97,9 +100,10 @@ impl Cone {
     /// direction that meets the ball is in the cone, `1 + cos theta >= 2 - depth`; one that
     /// rounds past its rim (or a BSDF sample's from a point within a rounding of the ball)
     /// takes the rim's pdf, not one that grows without bound towards the opposite direction.
-    fn pdf(&self, one_plus_cos: f64) -> f64 {
-        let one_plus_cos = one_plus_cos.max(2.0 - self.depth);
-        3.0 / (8.0 * PI) / (self.depth * (self.depth * one_plus_cos).sqrt())
+    #[inline(always)]
+    fn pdf(&self, one_plus_cos: L) -> L {
+        let one_plus_cos = one_plus_cos.max(L::splat(2.0) - self.depth);
+        L::splat(3.0 / (8.0 * PI)) / (self.depth * (self.depth * one_plus_cos).sqrt())
     }
 }
 
@@ -107,21 +111,44 @@ impl Cone {
 /// says, its solid-angle pdf and the distance to the centre; `None` when `x` is inside the ball
 /// (or the ball too small to sample, `Cone::of`).
 pub fn sample_ball(x: DVec4, center: DVec4, radius: f64, u: DVec3) -> Option<(DVec4, f64, f64)> {
-    let cone = Cone::of(x, center, radius)?;
+    let (center, x) = (center.to_array(), x.to_array());
+    let (drawn, wo, pdf, distance) = sample_balls(x, center, radius, u.to_array());
+    drawn.then(|| (DVec4::from_array(wo), pdf, distance))
+}
+
+/// One lane of what [`sample_balls`] gives: whether it drew, the direction, its pdf and the
+/// distance to the centre.
+pub type Drawn = (bool, [f64; 4], f64, f64);
+
+/// [`sample_ball`] in each lane: where the mask holds, the direction, its pdf and the distance
+/// to the centre; elsewhere numbers that mean nothing.
+#[inline(always)]
+pub fn sample_balls<L: Lane>(
+    x: [L; 4],
+    center: [L; 4],
+    radius: L,
+    [u0, u1, u2]: [L; 3],
+) -> (L::Mask, [L; 4], L, L) {
+    let (drawn, cone) = Cone::of(x, center, radius);
+    let (one, two) = (L::splat(1.0), L::splat(2.0));
     // `u^(2/3)` below 1 for `u < 1`, though the cube root may round past it.
-    let v = cone.depth * cube_root(u.x * u.x).min(1.0);
-    let (cos_t, sin_t) = (1.0 - v, (v * (2.0 - v)).sqrt());
+    let v = cone.depth * cube_root(u0 * u0).min(one);
+    let (cos_t, sin_t) = (one - v, (v * (two - v)).sqrt());
     // A unit vector to within its rounding, and the frame is orthogonal: it needs no
     // normalising (a square root and a division after all the rest).
-    let local = (sin_t * uniform_s2(u.y, u.z)).extend(cos_t);
-    let wo = Frame::new(cone.axis).to_world(local);
-    Some((wo, cone.pdf(2.0 - v), cone.distance))
+    let [a, b, c] = scale(uniform_s2(u1, u2), sin_t);
+    let wo = Frame::of(cone.axis).world([a, b, c, cos_t]);
+    (drawn, wo, cone.pdf(two - v), cone.distance)
 }
 
 /// Solid-angle pdf with which [`sample_ball`] draws the direction `wo` (unit, meeting the ball)
 /// from `x`; 0 where no sample can be drawn (`x` inside the ball, `Cone::of`).
 pub fn ball_pdf(x: DVec4, center: DVec4, radius: f64, wo: DVec4) -> f64 {
-    Cone::of(x, center, radius).map_or(0.0, |c| c.pdf(1.0 + wo.dot(c.axis)))
+    let (drawn, cone) = Cone::of(x.to_array(), center.to_array(), radius);
+    match drawn {
+        true => cone.pdf(1.0 + dot(wo.to_array(), cone.axis)),
+        false => 0.0,
+    }
 }
 
 /// The spherical lights of one frame, chosen in proportion to their power
@@ -245,18 +272,24 @@ impl Lights {
     /// Pick a light with `select` and a direction towards it with `u` (uniforms in `[0, 1)`).
     /// `None` when there are no lights, or `x` is inside the one picked.
     pub fn sample(&self, x: DVec4, select: f64, u: DVec3) -> Option<LightSample> {
-        if self.lights.is_empty() {
-            return None;
-        }
-        let i = self
-            .cumulative
-            .partition_point(|&c| c <= select)
-            .min(self.lights.len() - 1);
+        let i = self.choose(select)?;
         let l = &self.lights[i];
-        let (wo, pdf, distance) = sample_ball(x, l.center, l.radius, u)?;
-        Some(LightSample {
+        let drawn = sample_balls(x.to_array(), l.center.to_array(), l.radius, u.to_array());
+        self.drawn(i, drawn)
+    }
+
+    /// The light a sample with `select` draws from (none without lights).
+    pub fn choose(&self, select: f64) -> Option<usize> {
+        let last = self.lights.len().checked_sub(1)?;
+        Some(self.cumulative.partition_point(|&c| c <= select).min(last))
+    }
+
+    /// The sample of light `i` that `sample_balls` drew in one lane: direction, pdf (of the
+    /// ball's cone) and distance, where it drew one.
+    pub fn drawn(&self, i: usize, (drawn, wo, pdf, distance): Drawn) -> Option<LightSample> {
+        drawn.then(|| LightSample {
             light: i,
-            wo,
+            wo: DVec4::from_array(wo),
             pdf: pdf * self.probability[i],
             distance,
         })

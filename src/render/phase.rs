@@ -145,7 +145,7 @@ impl PhaseFunction for HenyeyGreenstein {
         }
         let theta = self.sample_theta(u.x);
         let (sin_t, cos_t) = theta.sin_cos();
-        let local = (sin_t * uniform_s2(u.y, u.z)).extend(cos_t);
+        let local = (sin_t * DVec3::from_array(uniform_s2(u.y, u.z))).extend(cos_t);
         PhaseSample {
             wo: Frame::new(-wi).to_world(local),
             pdf: self.eval_cos(cos_t),

@@ -52,6 +52,7 @@ impl SamplerKind {
 }
 
 /// The random numbers of one sample (one path).
+#[derive(Clone, Debug)]
 pub struct Sampler {
     /// The PCG stream's seed, and the stream once a number is drawn from it (seeding it costs
     /// as much as a few Sobol numbers, and most Sobol samples never reach it).
@@ -172,26 +173,46 @@ impl Sampler {
     }
 
     /// A uniform number in `[0, 1)`.
+    #[inline]
     pub fn get(&mut self) -> f64 {
-        match &self.sobol {
-            Some(sobol) if self.dim < sobol_burley::NUM_DIMENSIONS => {
-                let (set, lane) = (self.dim / 4, (self.dim % 4) as usize);
-                if set != self.set {
-                    (self.set, self.four) = (set, sobol.four(set));
-                }
-                self.dim += 1;
-                self.four[lane] as f64
-            }
-            _ => (self
-                .rng
-                .get_or_insert_with(|| Pcg32::seed_from_u64(self.key)))
-            .random(),
+        match self.sobol_set(1) {
+            Some((four, lane)) => four[lane] as f64,
+            None => self.pcg(),
         }
     }
 
-    /// Three uniform numbers.
+    /// Three uniform numbers: one Sobol set's where they share one (a segment's directions
+    /// start a set), else one at a time.
+    #[inline]
     pub fn get3(&mut self) -> DVec3 {
-        DVec3::new(self.get(), self.get(), self.get())
+        match self.sobol_set(3) {
+            Some((f, l)) => DVec3::new(f[l] as f64, f[l + 1] as f64, f[l + 2] as f64),
+            None => DVec3::new(self.get(), self.get(), self.get()),
+        }
+    }
+
+    /// Where the next `take` Sobol dimensions lie in one set: the set's four numbers and the
+    /// lane of the first, the dimensions taken; none where they do not (or PCG draws them).
+    #[inline(always)]
+    fn sobol_set(&mut self, take: u32) -> Option<([f32; 4], usize)> {
+        let sobol = self.sobol.as_ref()?;
+        let (set, lane) = (self.dim / 4, self.dim % 4);
+        if lane + take > 4 || self.dim + take > sobol_burley::NUM_DIMENSIONS {
+            return None;
+        }
+        if set != self.set {
+            (self.set, self.four) = (set, sobol.four(set));
+        }
+        self.dim += take;
+        Some((self.four, lane as usize))
+    }
+
+    /// The PCG stream's next number, past the Sobol sequence or in its place.
+    fn pcg(&mut self) -> f64 {
+        let key = self.key;
+        self.rng
+            .get_or_insert_with(|| Pcg32::seed_from_u64(key))
+            .random()
     }
 
     /// Called as a path segment starts, after `bounces` scattering events: move to the
@@ -246,6 +267,23 @@ mod tests {
 
     /// The tables give `sobol_int4_rev`'s point for every top half of a shuffled index (the
     /// only bits it reads) in every set: every entry of every table is checked.
+    /// Three numbers at once are three in a row, wherever they start in a set, across sets
+    /// and past the Sobol sequence's dimensions, and the next number after them is too.
+    #[test]
+    fn three_at_once_are_three_in_a_row() {
+        for kind in [SamplerKind::Sobol, SamplerKind::Random] {
+            for dim in 0..sobol_burley::NUM_DIMENSIONS + 6 {
+                let mut a = Sampler::new(kind, 3, 1, 77, 9);
+                a.dim = dim;
+                let mut b = a.clone();
+                let three = a.get3().to_array().map(f64::to_bits);
+                let one = [b.get(), b.get(), b.get()].map(f64::to_bits);
+                assert_eq!(three, one, "{kind:?} from dimension {dim}");
+                assert_eq!(a.get().to_bits(), b.get().to_bits());
+            }
+        }
+    }
+
     #[test]
     fn tables_are_sobol_int4_rev() {
         use sobol_burley::parts::sobol_int4_rev;

@@ -9,6 +9,7 @@
 //! direction `(x, y, z, w)` in a local frame has `cos(theta) = w`, and `(x, y, z)` is its
 //! tangential part.
 
+use crate::math::lanes::{Lane, dot, scale};
 use glam::{DVec3, DVec4};
 use std::f64::consts::PI;
 
@@ -20,12 +21,14 @@ pub const BALL3_VOLUME: f64 = 4.0 * PI / 3.0;
 pub const SPHERE3_AREA: f64 = 2.0 * PI * PI;
 
 /// A direction uniform on the unit 2-sphere S^2 (`z = 1 - 2 u1`, azimuth `2 pi u2`, by
-/// Archimedes' hat-box theorem).
-pub fn uniform_s2(u1: f64, u2: f64) -> DVec3 {
-    let z = 1.0 - 2.0 * u1;
-    let r = (1.0 - z * z).max(0.0).sqrt();
+/// Archimedes' hat-box theorem); in each lane.
+#[inline(always)]
+pub fn uniform_s2<L: Lane>(u1: L, u2: L) -> [L; 3] {
+    let one = L::splat(1.0);
+    let z = one - L::splat(2.0) * u1;
+    let r = (one - z * z).max(L::splat(0.0)).sqrt();
     let (s, c) = sin_cos_turns(u2);
-    DVec3::new(r * c, r * s, z)
+    [r * c, r * s, z]
 }
 
 /// `(2 pi u).sin_cos()`, the angle given in turns (`|u|` below 2^48), to within 3e-16 of it:
@@ -33,26 +36,35 @@ pub fn uniform_s2(u1: f64, u2: f64) -> DVec3 {
 /// polynomials within an eighth of a turn (the first terms left out are below 5e-17), and the
 /// quarter put back by swapping and negating without a branch (the quarter is random in a
 /// sample). The library's `sin_cos`, which reduces any angle, was a sixteenth of the room's
-/// render.
-pub fn sin_cos_turns(u: f64) -> (f64, f64) {
-    debug_assert!(u.abs() < 2f64.powi(48), "{u} turns");
+/// render. In each lane.
+#[inline(always)]
+pub fn sin_cos_turns<L: Lane>(u: L) -> (L, L) {
+    debug_assert!(
+        (0..L::N).all(|l| u.at(l).abs() < 2f64.powi(48)),
+        "turns out of range"
+    );
     // Rounded to the nearest integer by adding 1.5 * 2^52, whose unit in the last place is 1
     // (`round` is a library call without SSE4.1); the integer's low bits are the sum's.
     const ROUND: f64 = 1.5 * (1u64 << 52) as f64;
-    let quarters = 4.0 * u;
-    let sum = quarters + ROUND;
-    let nearest = sum - ROUND;
-    let x = (quarters - nearest) * (PI / 2.0);
+    let quarters = L::splat(4.0) * u;
+    let sum = quarters + L::splat(ROUND);
+    let nearest = sum - L::splat(ROUND);
+    let x = (quarters - nearest) * L::splat(PI / 2.0);
     let x2 = x * x;
     let sin = x * poly(x2, &SIN_TAYLOR);
     let cos = poly(x2, &COS_TAYLOR);
-    // Quarter q: (sin, cos) of x turned by q quarters.
-    let q = sum.to_bits();
+    let turned = |l: usize, which: u64| turn(sum.at(l).to_bits(), sin.at(l), cos.at(l), which);
+    (L::each(|l| turned(l, 0)), L::each(|l| turned(l, 1)))
+}
+
+/// `(sin, cos)` of an angle turned by `q` quarters (the low bits of `q`), without a branch:
+/// the sine for `which` 0, the cosine for 1.
+#[inline(always)]
+fn turn(q: u64, sin: f64, cos: f64, which: u64) -> f64 {
     let swap = 0u64.wrapping_sub(q & 1);
     let (sb, cb) = (sin.to_bits(), cos.to_bits());
-    let (a, b) = (sb ^ ((sb ^ cb) & swap), cb ^ ((sb ^ cb) & swap));
-    let flip = |bits: u64, negate: u64| f64::from_bits(bits ^ ((negate & 2) << 62));
-    (flip(a, q), flip(b, q.wrapping_add(1)))
+    let bits = [sb ^ ((sb ^ cb) & swap), cb ^ ((sb ^ cb) & swap)][which as usize];
+    f64::from_bits(bits ^ ((q.wrapping_add(which) & 2) << 62))
 }
 
 /// `1 - x^2/3! + x^4/5! - ...` and `1 - x^2/2! + x^4/4! - ...` up to `x^14` and `x^16`.
@@ -74,8 +86,8 @@ const fn taylor<const N: usize>(odd: u32) -> [f64; N] {
 
 /// A polynomial in `y` by Horner's rule.
 #[inline(always)]
-fn poly(y: f64, coefficients: &[f64]) -> f64 {
-    coefficients.iter().rev().fold(0.0, |acc, &c| acc * y + c)
+fn poly<L: Lane>(y: L, coefficients: &[f64]) -> L {
+    (coefficients.iter().rev()).fold(L::splat(0.0), |acc, &c| acc * y + L::splat(c))
 }
 
 /// The cube root of `x >= 0` to about 1e-12 relative, for `u^(2/3)` in light samples and the
@@ -84,28 +96,33 @@ fn poly(y: f64, coefficients: &[f64]) -> f64 {
 /// Halley's iteration, `y (r + 2) / (2 r + 1)` with `r = y^3 / x` (cubic: 1e-14 after two;
 /// three Newton steps took six divisions in a row). `r` is taken as `(y / x) y^2` through
 /// `1 / x`, whose factors neither overflow nor underflow anywhere in the normal range
-/// (subnormal `x` is scaled into it).
-pub fn cube_root(x: f64) -> f64 {
-    if !(x > 0.0 && x.is_finite()) {
-        return x.max(0.0);
-    }
-    if x < f64::MIN_POSITIVE {
-        // Subnormal, where `1 / x` overflows: scaled by 2^54 exactly, and the root by 2^18.
-        return cube_root(x * 2f64.powi(54)) / 2f64.powi(18);
-    }
-    let inv = 1.0 / x;
-    let mut y = f64::from_bits(x.to_bits() / 3 + 0x2a9f_7893_782d_a1ce);
+/// (subnormal `x` is scaled into it). In each lane; outside the domain (not above 0, or not
+/// finite), `max(x, 0)`.
+#[inline(always)]
+pub fn cube_root<L: Lane>(x: L) -> L {
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
+    let domain = x.gt(zero) & x.is_finite();
+    // Subnormal, where `1 / x` overflows: scaled by 2^54 exactly, and the root by 2^18. Lanes
+    // outside the domain take the root of 1, and throw it away.
+    let subnormal = x.lt(L::splat(f64::MIN_POSITIVE));
+    let scaled = L::select(subnormal, x * L::splat(2f64.powi(54)), x);
+    let s = L::select(domain, scaled, one);
+    let inv = one / s;
+    let mut y = L::each(|l| f64::from_bits(s.at(l).to_bits() / 3 + 0x2a9f_7893_782d_a1ce));
     for _ in 0..2 {
         let r = (y * inv) * (y * y);
-        y *= (r + 2.0) / (2.0 * r + 1.0);
+        y = y * ((r + L::splat(2.0)) / (L::splat(2.0) * r + one));
     }
-    y
+    let y = L::select(subnormal, y / L::splat(2f64.powi(18)), y);
+    L::select(domain, y, x.max(zero))
 }
 
 /// A point uniform in the unit 3-ball: radius `u.x^(1/3)` (the volume below radius r grows as
-/// r^3; drawing the radius as `u.x` would crowd the centre), direction uniform on S^2.
-pub fn uniform_ball3(u: DVec3) -> DVec3 {
-    cube_root(u.x) * uniform_s2(u.y, u.z)
+/// r^3; drawing the radius as `u.x` would crowd the centre), direction uniform on S^2. In each
+/// lane.
+#[inline(always)]
+pub fn uniform_ball3<L: Lane>([u0, u1, u2]: [L; 3]) -> [L; 3] {
+    scale(uniform_s2(u1, u2), cube_root(u0))
 }
 
 /// A direction uniform on S^3, pdf `1 / (2 pi^2)` ([`SPHERE3_AREA`]).
@@ -124,10 +141,14 @@ pub fn uniform_s3(u: DVec3) -> DVec4 {
 /// Cosine-weighted direction on the hemisphere `w > 0` of a local frame (normal = e4), by
 /// Malley's lift: a point uniform in the unit 3-ball lifted to `w = sqrt(1 - |p|^2)`. The
 /// projection of `cos(theta) d(omega)` onto the equatorial 3-ball is its volume element, so the
-/// pdf is [`cosine_hemisphere_pdf`].
-pub fn cosine_hemisphere(u: DVec3) -> DVec4 {
-    let p = uniform_ball3(u);
-    DVec4::new(p.x, p.y, p.z, (1.0 - p.length_squared()).max(0.0).sqrt())
+/// pdf is [`cosine_hemisphere_pdf`]. In each lane.
+#[inline(always)]
+pub fn cosine_hemisphere<L: Lane>(u: [L; 3]) -> [L; 4] {
+    let [x, y, z] = uniform_ball3(u);
+    let w = (L::splat(1.0) - (x * x + y * y + z * z))
+        .max(L::splat(0.0))
+        .sqrt();
+    [x, y, z, w]
 }
 
 /// Pdf (per unit solid angle on S^3) of [`cosine_hemisphere`]: `3 cos(theta) / (4 pi)`,
@@ -183,33 +204,48 @@ pub fn fresnel_dielectric(cos_i: f64, eta_i: f64, eta_t: f64) -> f64 {
 /// inverse, so [`Frame::to_local`] and [`Frame::to_world`] are the same operation. It is improper
 /// (determinant -1), which is harmless for lobes that are isotropic about the normal: every lobe
 /// in this renderer is.
+/// A `Frame<F4>` is four frames, one per lane.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Frame {
-    v: DVec4,
+pub struct Frame<L = f64> {
+    v: [L; 4],
     /// `2 / (v.v)`.
-    scale: f64,
+    scale: L,
     /// -1 for `-H`, +1 for `H`.
-    sign: f64,
+    sign: L,
+}
+
+impl<L: Lane> Frame<L> {
+    /// The frame with local e4 mapped to the unit vector `n`, in each lane.
+    #[inline(always)]
+    pub fn of(n: [L; 4]) -> Frame<L> {
+        let up = n[3].gt(L::splat(0.0));
+        // `n + e4` or `n - e4`, coordinate by coordinate as glam adds them (`-0 + 0` is `+0`).
+        let e4 = |i: usize| L::splat(if i == 3 { 1.0 } else { 0.0 });
+        let v = std::array::from_fn(|i| L::select(up, n[i] + e4(i), n[i] - e4(i)));
+        Frame {
+            v,
+            scale: L::splat(2.0) / dot(v, v),
+            sign: L::select(up, L::splat(-1.0), L::splat(1.0)),
+        }
+    }
+
+    /// Local coordinates (normal = e4) to world coordinates, in each lane.
+    #[inline(always)]
+    pub fn world(&self, local: [L; 4]) -> [L; 4] {
+        let a = self.scale * dot(self.v, local);
+        std::array::from_fn(|i| self.sign * (local[i] - a * self.v[i]))
+    }
 }
 
 impl Frame {
     /// The frame with local e4 mapped to the unit vector `n`.
     pub fn new(n: DVec4) -> Frame {
-        let (v, sign) = if n.w > 0.0 {
-            (n + DVec4::W, -1.0)
-        } else {
-            (n - DVec4::W, 1.0)
-        };
-        Frame {
-            v,
-            scale: 2.0 / v.length_squared(),
-            sign,
-        }
+        Frame::of(n.to_array())
     }
 
     /// Local coordinates (normal = e4) to world coordinates.
     pub fn to_world(&self, local: DVec4) -> DVec4 {
-        self.sign * (local - self.scale * self.v.dot(local) * self.v)
+        DVec4::from_array(self.world(local.to_array()))
     }
 
     /// World coordinates to local coordinates (normal = e4); the map is an involution.
@@ -288,10 +324,13 @@ mod tests {
     }
 
     /// `cube_root` is the cube root to within 2e-12, from the subnormal numbers to the largest,
-    /// and 0 at 0.
+    /// 0 at 0, and `max(x, 0)` outside its domain.
     #[test]
     fn cube_root_is_close() {
         assert_eq!(cube_root(0.0), 0.0);
+        assert_eq!(cube_root(-1.0), 0.0);
+        assert_eq!(cube_root(f64::NAN), 0.0);
+        assert_eq!(cube_root(f64::INFINITY), f64::INFINITY);
         // Subnormals too, from the fourth (times 1.37 rounds up there; at the first it stays).
         let mut x = f64::from_bits(4);
         while x < f64::MAX / 1.37 {
@@ -301,6 +340,70 @@ mod tests {
                 "{x}: {got} against {want}"
             );
             x *= 1.37;
+        }
+    }
+
+    /// Four lanes at once (`F4`) are each lane alone (`f64`), bit for bit, in every sampler
+    /// written for both, on ordinary numbers and on those the selects stand in for: zeros of
+    /// both signs, subnormals, negatives, infinities and NaN, normals along e4 and on its
+    /// equator, points inside and on a light's ball.
+    #[test]
+    fn lanes_are_each_alone() {
+        use crate::math::lanes::{F4, gather, lane};
+        use crate::render::lights::sample_balls;
+        use rand::{Rng, SeedableRng};
+        let special = [
+            0.0,
+            -0.0,
+            5e-324,
+            1e-310,
+            -1.0,
+            f64::INFINITY,
+            f64::NAN,
+            1e300,
+            0.5,
+        ];
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(4);
+        let number = |rng: &mut rand_pcg::Pcg64Mcg| match rng.random_range(0..4) {
+            0 => special[rng.random_range(0..special.len())],
+            _ => rng.random_range(-1.5..1.5),
+        };
+        let same = |a: &[f64], b: &[f64]| a.iter().zip(b).all(|(x, y)| x.to_bits() == y.to_bits());
+        for _ in 0..20_000 {
+            let x: [[f64; 4]; 4] =
+                std::array::from_fn(|_| std::array::from_fn(|_| number(&mut rng)));
+            let four = gather(x);
+            let one = |l: usize| x[l];
+            let r = F4(std::array::from_fn(|l| x[l][0].abs()));
+            let (drawn, wo, pdf, distance) =
+                sample_balls(four, gather([one(1); 4]), r, [four[0], four[1], four[2]]);
+            let frame = Frame::of(four);
+            let world = frame.world(gather(x.map(|v| [v[3], v[2], v[1], v[0]])));
+            let (sin, cos) = sin_cos_turns(four[1]);
+            let hemisphere = cosine_hemisphere([four[0], four[1], four[2]]);
+            for l in 0..4 {
+                let v = x[l];
+                assert!(
+                    same(&[cube_root(four[0]).0[l]], &[cube_root(v[0])]),
+                    "{v:?}"
+                );
+                let (s1, c1) = sin_cos_turns(v[1]);
+                assert!(same(&[sin.0[l], cos.0[l]], &[s1, c1]), "{v:?}");
+                assert!(same(
+                    &lane(hemisphere, l),
+                    &cosine_hemisphere([v[0], v[1], v[2]])
+                ));
+                let f = Frame::of(v);
+                assert!(
+                    same(&lane(world, l), &f.world([v[3], v[2], v[1], v[0]])),
+                    "{v:?}"
+                );
+                let alone = sample_balls(v, x[1], v[0].abs(), [v[0], v[1], v[2]]);
+                assert_eq!(drawn.0[l], alone.0, "{v:?}");
+                let got = [lane(wo, l).as_slice(), &[pdf.0[l], distance.0[l]]].concat();
+                let want = [alone.1.as_slice(), &[alone.2, alone.3]].concat();
+                assert!(!alone.0 || same(&got, &want), "{v:?}");
+            }
         }
     }
 }

@@ -51,7 +51,7 @@ pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
 /// Four of `f(l)`, for `l` a lane: every step of the lanes' code is one, which the compiler
 /// turns into a vector instruction (nested loops over lanes and coordinates it left scalar).
 #[inline(always)]
-fn each<T>(f: impl Fn(usize) -> T) -> [T; 4] {
+pub(super) fn each<T>(f: impl Fn(usize) -> T) -> [T; 4] {
     [f(0), f(1), f(2), f(3)]
 }
 

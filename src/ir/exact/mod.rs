@@ -519,22 +519,21 @@ impl Rays {
     /// coordinate: the identity's rows asked once for all four.
     #[inline(always)]
     fn local(&self, rows: &Rows, b: &[f64; 4]) -> (boxes::Four, boxes::Four) {
-        let (mut u, mut w) = (self.p, self.d);
+        let (p, d) = (&self.p, &self.d);
         if rows.identity {
-            for i in 0..4 {
-                u[i] = self.p[i].map(|x| x + b[i]);
-            }
-        } else {
-            let (p, d) = (&self.p, &self.d);
-            for i in 0..4 {
-                let m = &rows[i];
-                for l in 0..4 {
-                    u[i][l] =
-                        m[0] * p[0][l] + m[1] * p[1][l] + m[2] * p[2][l] + m[3] * p[3][l] + b[i];
-                    w[i][l] = m[0] * d[0][l] + m[1] * d[1][l] + m[2] * d[2][l] + m[3] * d[3][l];
-                }
-            }
+            let u = boxes::each(|i| boxes::each(|l| p[i][l] + b[i]));
+            return (u, *d);
         }
+        let u = boxes::each(|i| {
+            let m = &rows[i];
+            boxes::each(|l| {
+                m[0] * p[0][l] + m[1] * p[1][l] + m[2] * p[2][l] + m[3] * p[3][l] + b[i]
+            })
+        });
+        let w = boxes::each(|i| {
+            let m = &rows[i];
+            boxes::each(|l| m[0] * d[0][l] + m[1] * d[1][l] + m[2] * d[2][l] + m[3] * d[3][l])
+        });
         (u, w)
     }
 
