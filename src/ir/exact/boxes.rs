@@ -109,7 +109,11 @@ pub fn meet_lanes(
     }
     // The sharp box each ray meets, grown by its `r'`: half-extents lane by lane.
     let g: Four = each(|i| each(|l| half[i] + grown[l]));
-    let pass = passes((u, w), (half, &g), (grown, inside));
+    // Rays that start inside (in a hollow shell's room, all of them) cannot pass it by.
+    let pass = match inside.iter().all(|&i| i) {
+        true => [false; 4],
+        false => passes((u, w), (half, &g), (grown, inside)),
+    };
     // A ray meets the surface where it starts unless the value there is positive (a NaN
     // value too: where it starts is not known to be outside).
     let ahead = each(|l| value[l] > 0.0);
