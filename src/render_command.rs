@@ -734,6 +734,7 @@ fn summary(args: &RenderArgs, scene: &Scene, t: &Finished) {
             "distance_evaluations": s.evaluations,
             "instructions": s.instructions,
             "out_of_steps": s.out_of_steps,
+            "shadow_rays": s.shadow_rays,
             "dropped": s.dropped,
             "denoise": r.denoise.name(),
             "denoise_seconds": finish_secs,

@@ -123,6 +123,7 @@ fn defines_reach_check_compile_and_render() {
         (Some(8), Some(6))
     );
     assert_eq!(stats["samples"].as_u64(), Some(48));
+    assert!(stats["shadow_rays"].as_u64().is_some(), "{stats}");
     assert_eq!(stats["files"][0], "d.png");
 }
 
