@@ -8,7 +8,7 @@
 //! outside a formula's domain (a NaN, a subnormal) it computes on a stand-in and the select
 //! throws that away.
 
-use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
+use std::ops::{Add, BitAnd, Div, Mul, Neg, Sub};
 
 /// One number or several, with the `f64` operations the samplers use, lane by lane.
 pub trait Lane:
@@ -20,10 +20,7 @@ pub trait Lane:
     + Neg<Output = Self>
 {
     /// Lane-wise truth values: `bool` for `f64`.
-    type Mask: Copy
-        + BitAnd<Output = Self::Mask>
-        + BitOr<Output = Self::Mask>
-        + Not<Output = Self::Mask>;
+    type Mask: Copy + BitAnd<Output = Self::Mask>;
     /// How many lanes.
     const N: usize;
     /// `x` in every lane.
@@ -120,21 +117,12 @@ lane_op!(Sub, sub, F4, -);
 lane_op!(Mul, mul, F4, *);
 lane_op!(Div, div, F4, /);
 lane_op!(BitAnd, bitand, M4, &);
-lane_op!(BitOr, bitor, M4, |);
 
 impl Neg for F4 {
     type Output = F4;
     #[inline(always)]
     fn neg(self) -> F4 {
         F4(each(|l| -self.0[l]))
-    }
-}
-
-impl Not for M4 {
-    type Output = M4;
-    #[inline(always)]
-    fn not(self) -> M4 {
-        M4(each(|l| !self.0[l]))
     }
 }
 

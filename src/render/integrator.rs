@@ -618,7 +618,7 @@ struct Nee<'a> {
     interior: bool,
 }
 
-impl Nee<'_> {
+impl<'a> Nee<'a> {
     /// Take one light sample at `x`, the vertex path `index` is at (after its scattering
     /// albedo is in `beta`), and queue its shadow ray, which leaves from `origin` (`x` lifted
     /// off its surface, as the path's own next segment is). `lobe(wo)` gives the scattering
@@ -637,14 +637,21 @@ impl Nee<'_> {
         lobe: impl Fn(DVec4) -> (DVec3, f64),
         shadows: &mut Shadows,
     ) -> bool {
-        let Some(lights) = self.lights else {
+        let Some((lights, select, u)) = self.draw(path, x) else {
             return false;
         };
-        let (select, u) = (path.sampler.get(), path.u3());
-        path.mis_from = x;
         let ls = lights.sample(x, select, u);
         self.queue(lights, path, index, ls, origin, medium, lobe, shadows);
         true
+    }
+
+    /// The numbers of a light sample at the vertex `x` of `path`, from its own stream (which
+    /// light, and where on it), where there are lights to sample.
+    fn draw(&self, path: &mut Path, x: DVec4) -> Option<(&'a Lights, f64, DVec3)> {
+        let lights = self.lights?;
+        let (select, u) = (path.sampler.get(), path.u3());
+        path.mis_from = x;
+        Some((lights, select, u))
     }
 
     /// The rest of `sample` once the light sample `ls` is drawn (none: nothing to send):
@@ -968,15 +975,18 @@ fn reflect<B: Bsdf>(
     let mut sampled = false;
     if let Some((fs, nee, index, shadows)) = light {
         let m = path.stack.medium(fs.medium);
-        let lobe = |wo_world| {
-            let wo = frame.to_local(wo_world);
-            (bsdf.eval(wi, wo) * wo.w.abs(), bsdf.pdf(wi, wo))
-        };
+        let lobe = |wo_world| cosine_lobe(bsdf, wi, frame.to_local(wo_world));
         sampled = nee.sample(path, index, p, o, m, lobe, shadows);
     }
     let b = bsdf.sample(wi, u)?;
     let d = frame.to_world(b.wo).normalize();
     Some(scattered(path, b, d, o, sampled))
+}
+
+/// The scattering function times `|cos|` from `wi` towards `wo` (both local), and the pdf with
+/// which `bsdf` draws `wo`: what a light sample towards `wo` needs of the surface.
+fn cosine_lobe<B: Bsdf>(bsdf: &B, wi: DVec4, wo: DVec4) -> (DVec3, f64) {
+    (bsdf.eval(wi, wo) * wo.w.abs(), bsdf.pdf(wi, wo))
 }
 
 /// The normal `n` at `p` turned towards the side the path comes from, and the point the path

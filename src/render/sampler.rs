@@ -197,7 +197,8 @@ impl Sampler {
     fn sobol_set(&mut self, take: u32) -> Option<([f32; 4], usize)> {
         let sobol = self.sobol.as_ref()?;
         let (set, lane) = (self.dim / 4, self.dim % 4);
-        if lane + take > 4 || self.dim + take > sobol_burley::NUM_DIMENSIONS {
+        // (`dim` may be as high as `u32::MAX`: `start_segment` saturates.)
+        if lane + take > 4 || self.dim > sobol_burley::NUM_DIMENSIONS - take {
             return None;
         }
         if set != self.set {
@@ -265,10 +266,9 @@ mod tests {
         }
     }
 
-    /// The tables give `sobol_int4_rev`'s point for every top half of a shuffled index (the
-    /// only bits it reads) in every set: every entry of every table is checked.
     /// Three numbers at once are three in a row, wherever they start in a set, across sets
-    /// and past the Sobol sequence's dimensions, and the next number after them is too.
+    /// and past the Sobol sequence's dimensions (as far as `start_segment` saturates), and the
+    /// next number after them is too.
     #[test]
     fn three_at_once_are_three_in_a_row() {
         for kind in [SamplerKind::Sobol, SamplerKind::Random] {
@@ -281,9 +281,19 @@ mod tests {
                 assert_eq!(three, one, "{kind:?} from dimension {dim}");
                 assert_eq!(a.get().to_bits(), b.get().to_bits());
             }
+            let mut far = Sampler::new(kind, 3, 1, 77, 9);
+            far.start_segment(u32::MAX);
+            let mut next = far.clone();
+            let three = far.get3().to_array().map(f64::to_bits);
+            assert_eq!(
+                three,
+                [next.get(), next.get(), next.get()].map(f64::to_bits)
+            );
         }
     }
 
+    /// The tables give `sobol_int4_rev`'s point for every top half of a shuffled index (the
+    /// only bits it reads) in every set: every entry of every table is checked.
     #[test]
     fn tables_are_sobol_int4_rev() {
         use sobol_burley::parts::sobol_int4_rev;

@@ -6,6 +6,7 @@
 //! convex, so leaving it is entering it along the reversed ray from beyond its far side.
 
 use super::dot;
+use crate::math::lanes::each;
 
 /// Four points or directions, coordinate by coordinate (`x[i][lane]`): what `meet_lanes`
 /// takes, so that every step is a loop over the lanes, which the compiler puts in the lanes of
@@ -46,13 +47,6 @@ pub fn gradient(u: [f64; 4], half: [f64; 4]) -> [f64; 4] {
 pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     // The value's square root is dead code here, and left out.
     values(&broadcast(u), half, r).1[0]
-}
-
-/// Four of `f(l)`, for `l` a lane: every step of the lanes' code is one, which the compiler
-/// turns into a vector instruction (nested loops over lanes and coordinates it left scalar).
-#[inline(always)]
-pub(super) fn each<T>(f: impl Fn(usize) -> T) -> [T; 4] {
-    [f(0), f(1), f(2), f(3)]
 }
 
 /// `a . b` lane by lane, in `dot`'s order.

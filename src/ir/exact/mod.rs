@@ -13,6 +13,7 @@ mod cover;
 mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
+use crate::math::lanes::each;
 pub use balls::{Meetings, Pieces};
 pub use cover::{Cover, cover};
 pub use lattice::{CELLS, Tiled, Tiling};
@@ -521,18 +522,16 @@ impl Rays {
     fn local(&self, rows: &Rows, b: &[f64; 4]) -> (boxes::Four, boxes::Four) {
         let (p, d) = (&self.p, &self.d);
         if rows.identity {
-            let u = boxes::each(|i| boxes::each(|l| p[i][l] + b[i]));
+            let u = each(|i| each(|l| p[i][l] + b[i]));
             return (u, *d);
         }
-        let u = boxes::each(|i| {
+        let u = each(|i| {
             let m = &rows[i];
-            boxes::each(|l| {
-                m[0] * p[0][l] + m[1] * p[1][l] + m[2] * p[2][l] + m[3] * p[3][l] + b[i]
-            })
+            each(|l| m[0] * p[0][l] + m[1] * p[1][l] + m[2] * p[2][l] + m[3] * p[3][l] + b[i])
         });
-        let w = boxes::each(|i| {
+        let w = each(|i| {
             let m = &rows[i];
-            boxes::each(|l| m[0] * d[0][l] + m[1] * d[1][l] + m[2] * d[2][l] + m[3] * d[3][l])
+            each(|l| m[0] * d[0][l] + m[1] * d[1][l] + m[2] * d[2][l] + m[3] * d[3][l])
         });
         (u, w)
     }

@@ -4,9 +4,9 @@
 //! lanes of one vector (`math::lanes`), each lane bit for bit what `reflect` computes for its
 //! vertex alone, and each path draws its random numbers in the same order as there.
 
-use super::{Nee, Path, Settings, Shadows, facing, scattered, survive};
+use super::{Nee, Path, Settings, Shadows, cosine_lobe, facing, scattered, survive};
 use crate::math::lanes::{F4, Lane, gather, lane, normalize};
-use crate::render::bsdf::{Bsdf, Lambert};
+use crate::render::bsdf::Lambert;
 use crate::render::frame::FrameScene;
 use crate::render::lights::sample_balls;
 use crate::render::sampling::{Frame, cosine_hemisphere};
@@ -58,9 +58,7 @@ fn scatter_four(
     for (l, v) in four.iter().enumerate() {
         let path = &mut paths[v.path as usize];
         sides[l] = facing(path, v.p, v.n, v.eps);
-        if let Some(lights) = nee.lights {
-            let (select, u) = (path.sampler.get(), path.u3());
-            path.mis_from = v.p;
+        if let Some((lights, select, u)) = nee.draw(path, v.p) {
             draws[l] = lights.choose(select).map(|i| (i, u));
         }
     }
@@ -96,11 +94,10 @@ fn scatter_four(
             if let (Some((i, _)), Some((drawn, wo, pdf, distance, local))) = (draws[l], light) {
                 let numbers = (drawn.0[l], lane(wo, l), pdf.at(l), distance.at(l));
                 let ls = lights.drawn(i, numbers);
+                // `queue` asks for the light sample's own direction, which the lanes turned
+                // into the vertex's frame already (`local`).
                 let wo_local = DVec4::from_array(lane(local, l));
-                let lobe = |_| {
-                    let f = lambert.eval(wi, wo_local) * wo_local.w.abs();
-                    (f, lambert.pdf(wi, wo_local))
-                };
+                let lobe = |_| cosine_lobe(&lambert, wi, wo_local);
                 let m = path.stack.medium(fs.medium);
                 nee.queue(lights, path, v.path, ls, o, m, lobe, shadows);
             }
