@@ -72,9 +72,9 @@ struct Cone<L> {
 
 impl<L: Lane> Cone<L> {
     /// The cone of the ball (`center`, `r`) seen from `x`, where the mask holds; not where `x`
-    /// is inside the ball or on its surface, the values are not usable, or the cone is so narrow that `depth^3`
-    /// underflows to 0 (below about 1e-54 rad), which keeps the pdf below about 1e162: no
-    /// light sample is drawn there, and BSDF samples that meet the light take all the weight
+    /// is inside the ball or on its surface, the values are not usable, or the cone is so
+    /// narrow that `depth^3` underflows to 0 (below about 1e-54 rad), which keeps the pdf below
+    /// about 1e162: no light sample is drawn there, and BSDF samples that meet the light take all the weight
     /// (`ball_pdf` is 0), as from inside it. The square roots of `d^2` and of `cos^2 a` do not
     /// wait for each other. (`r^2` loses precision for radii below about 1e-154, scenes far
     /// below any marching epsilon.)

@@ -49,8 +49,6 @@ fn scatter_four(
     nee: &Nee,
     shadows: &mut Shadows,
 ) {
-    // Lanes past the vertices repeat the last one; their numbers are not used.
-    let at = |l: usize| &four[l.min(four.len() - 1)];
     // Each path's side of its surface, and its light sample's numbers (the light, and where on
     // it), drawn in its own order: after the BSDF's (in `shade`), before the roulette's.
     let mut sides = [(DVec4::ZERO, DVec4::ZERO); 4];
@@ -62,15 +60,14 @@ fn scatter_four(
             draws[l] = lights.choose(select).map(|i| (i, u));
         }
     }
-    for l in four.len()..4 {
-        (sides[l], draws[l]) = (sides[four.len() - 1], draws[four.len() - 1]);
-    }
-    let lanes = [0, 1, 2, 3];
+    // Lanes past the vertices repeat the last one; their numbers are not used.
+    let lanes = [0, 1, 2, 3].map(|l: usize| l.min(four.len() - 1));
+    let (sides, draws) = (lanes.map(|l| sides[l]), lanes.map(|l| draws[l]));
     let frame = Frame::of(gather(sides.map(|(n, _)| n.to_array())));
     let wi = frame.world(gather(
-        lanes.map(|l| (-paths[at(l).path as usize].d).to_array()),
+        lanes.map(|l| (-paths[four[l].path as usize].d).to_array()),
     ));
-    let bsdf_wo = cosine_hemisphere(gather(lanes.map(|l| at(l).u.to_array())));
+    let bsdf_wo = cosine_hemisphere(gather(lanes.map(|l| four[l].u.to_array())));
     let out = normalize(frame.world(bsdf_wo));
     // The light samples, where the paths draw them, and their directions in each frame.
     // (A block, not a closure: a closure the compiler does not inline runs without the
@@ -81,7 +78,7 @@ fn scatter_four(
         let center = gather(chosen.map(|c| c.center.to_array()));
         let radius = F4(chosen.map(|c| c.radius));
         let u = gather(draws.map(|d| d.map_or([0.0; 3], |(_, u)| u.to_array())));
-        let p = gather(lanes.map(|l| at(l).p.to_array()));
+        let p = gather(lanes.map(|l| four[l].p.to_array()));
         let (drawn, wo, pdf, distance) = sample_balls(p, center, radius, u);
         light = Some((drawn, wo, pdf, distance, frame.world(wo)));
     }
