@@ -1504,6 +1504,72 @@ fn exact_forms_gradients_are_the_slopes_of_their_values() {
     assert!(checked > 15000, "{checked} points checked");
 }
 
+/// Four points' gradients at once (`Form::gradient` on `F4` lanes, as the normals of four hits
+/// are taken) are each point's alone, bit for bit, on every kind of form: inside and outside
+/// boxes, on their faces' planes and where faces tie (coordinates snapped to the box's own
+/// numbers), at a ball's centre, and at points that are not finite.
+#[test]
+fn four_points_gradients_are_each_alone() {
+    const IDENTITY: [[f64; 4]; 4] = [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ];
+    use hyperslice::math::lanes::{F4, gather, lane};
+    let mut rng = Pcg64Mcg::seed_from_u64(34);
+    let bits = |x: f64| {
+        if x.is_nan() {
+            f64::NAN.to_bits()
+        } else {
+            x.to_bits()
+        }
+    };
+    let mut faces = 0;
+    for i in 0..20000 {
+        use hyperslice::ir::exact::Form;
+        // Every other box only moved, so that points snapped to its centre and faces are.
+        let form = match random_form(&mut rng, i % 9) {
+            Form::Box {
+                b, half, r, sign, ..
+            } if i % 2 == 0 => Form::Box {
+                rows: IDENTITY.into(),
+                b,
+                half,
+                r,
+                sign,
+            },
+            form => form,
+        };
+        let (centre, half) = match &form {
+            Form::Box { b, half, .. } => (b.map(|x| -x), *half),
+            _ => ([0.0; 4], [1.0; 4]),
+        };
+        let points: [[f64; 4]; 4] = std::array::from_fn(|_| {
+            let mut p = random_point(&mut rng, 3.0);
+            for a in 0..4 {
+                p[a] = match rng.random_range(0..12) {
+                    0 => 0.0,
+                    1 => -0.0,
+                    2 => centre[a],
+                    3 => centre[a] + half[a],
+                    4 => centre[a] - half[a],
+                    5 if i % 50 == 0 => [f64::NAN, f64::INFINITY][rng.random_range(0..2)],
+                    _ => p[a],
+                };
+            }
+            p
+        });
+        let four = form.gradient::<F4>(gather(points)).expect("no tiled ball");
+        for (l, &p) in points.iter().enumerate() {
+            let one = form.gradient(p).expect("no tiled ball");
+            assert_eq!(lane(four, l).map(bits), one.map(bits), "{form:?} at {p:?}");
+            faces += (one.iter().filter(|&&x| x != 0.0).count() == 1) as usize;
+        }
+    }
+    assert!(faces > 3000, "only {faces} gradients along an axis");
+}
+
 /// Random orthonormal rows (a rotation), by Gram-Schmidt.
 fn random_rotation(rng: &mut Pcg64Mcg) -> [[f64; 4]; 4] {
     let mut rows = [[0.0; 4]; 4];

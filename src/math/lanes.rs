@@ -30,6 +30,7 @@ pub trait Lane:
     /// The lanes `f(0), f(1), ...`: for what has no lane-wise operator (bit tricks).
     fn each(f: impl Fn(usize) -> f64) -> Self;
     fn sqrt(self) -> Self;
+    fn abs(self) -> Self;
     /// `f64::min`: where one side is NaN, the other.
     fn min(self, o: Self) -> Self;
     /// `f64::max`: where one side is NaN, the other.
@@ -59,6 +60,10 @@ impl Lane for f64 {
     #[inline(always)]
     fn sqrt(self) -> f64 {
         f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn abs(self) -> f64 {
+        f64::abs(self)
     }
     #[inline(always)]
     fn min(self, o: f64) -> f64 {
@@ -144,6 +149,10 @@ impl Lane for F4 {
     #[inline(always)]
     fn sqrt(self) -> F4 {
         F4(each(|l| self.0[l].sqrt()))
+    }
+    #[inline(always)]
+    fn abs(self) -> F4 {
+        F4(each(|l| self.0[l].abs()))
     }
     #[inline(always)]
     fn min(self, o: F4) -> F4 {

@@ -6,7 +6,7 @@
 //! convex, so leaving it is entering it along the reversed ray from beyond its far side.
 
 use super::dot;
-use crate::math::lanes::each;
+use crate::math::lanes::{self, Lane, each};
 
 /// Four points or directions, coordinate by coordinate (`x[i][lane]`): what `meet_lanes`
 /// takes, so that every step is a loop over the lanes, which the compiler puts in the lanes of
@@ -25,28 +25,44 @@ pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
     values(&broadcast(u), half, r).0[0]
 }
 
-/// The gradient of the distance to the sharp box of half-extents `half` at `u` (grown or
-/// shrunk by any `r`, the same): outside, the unit vector from the nearest point of the box;
-/// inside, the normal of the nearest face (the first of a tie, as `max` takes it).
-pub fn gradient(u: [f64; 4], half: [f64; 4]) -> [f64; 4] {
-    let q: [f64; 4] = std::array::from_fn(|i| u[i].abs() - half[i]);
-    let sign = u.map(|x| if x < 0.0 { -1.0 } else { 1.0 });
-    let out = q.map(|x| x.max(0.0));
-    let len = dot(out, out).sqrt();
-    if len > 0.0 {
-        return std::array::from_fn(|i| sign[i] * out[i] / len);
+/// The gradient of the distance to the sharp box of half-extents `half` at `u` (one point or
+/// four; grown or shrunk by any `r`, the same): outside, the unit vector from the nearest
+/// point of the box; inside, the normal of the nearest face (the first of a tie, as `max`
+/// takes it).
+#[inline(always)]
+pub fn gradient<L: Lane>(u: [L; 4], half: [f64; 4]) -> [L; 4] {
+    let (zero, one) = (L::splat(0.0), L::splat(1.0));
+    let q: [L; 4] = each(|i| u[i].abs() - L::splat(half[i]));
+    let sign = u.map(|x| L::select(x.lt(zero), -one, one));
+    let out = q.map(|x| x.max(zero));
+    let len = lanes::dot(out, out).sqrt();
+    // Inside: the first of the highest `q`s.
+    let (mut high, mut top) = (q[0], zero);
+    for (i, &q) in q.iter().enumerate().skip(1) {
+        let higher = q.gt(high);
+        (high, top) = (
+            L::select(higher, q, high),
+            L::select(higher, L::splat(i as f64), top),
+        );
     }
-    let top = (1..4).fold(0, |k, i| if q[i] > q[k] { i } else { k });
-    std::array::from_fn(|i| if i == top { sign[i] } else { 0.0 })
+    each(|i| {
+        let face = top.gt(L::splat(i as f64 - 0.5)) & top.lt(L::splat(i as f64 + 0.5));
+        let inside = L::select(face, sign[i], zero);
+        L::select(len.gt(zero), sign[i] * out[i] / len, inside)
+    })
 }
 
-/// The sign of `value(u, half, r)` (1 or -1), without its square root: outside the sharp
-/// box, `|max(q, 0)|` against `r` by their squares. Where the two round apart (`value` within
-/// its rounding of 0, often exactly 0), either sign is right: the point is on the surface.
+/// The sign of `value(u, half, r)` (1 or -1) at one point or four, without its square root:
+/// outside the sharp box, `|max(q, 0)|` against `r` by their squares. Where the two round
+/// apart (`value` within its rounding of 0, often exactly 0), either sign is right: the point
+/// is on the surface.
 #[inline(always)]
-pub fn sign(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
-    // The value's square root is dead code here, and left out.
-    values(&broadcast(u), half, r).1[0]
+pub fn sign<L: Lane>(u: [L; 4], half: [f64; 4], r: f64) -> L {
+    // One point fills all four lanes. The value's square root is dead code here, and left
+    // out.
+    let u: Four = u.map(|x| each(|l| x.at(l % L::N)));
+    let signs = values(&u, half, r).1;
+    L::each(|l| signs[l])
 }
 
 /// `a . b` lane by lane, in `dot`'s order.

@@ -13,7 +13,7 @@ mod cover;
 mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
-use crate::math::lanes::each;
+use crate::math::lanes::{self, Lane, each};
 pub use balls::{Meetings, Pieces};
 pub use cover::{Cover, cover};
 pub use lattice::{CELLS, Tiled, Tiling};
@@ -107,10 +107,10 @@ fn local(rows: &Rows, b: &[f64; 4], p: [f64; 4], d: [f64; 4]) -> ([f64; 4], [f64
     }
 }
 
-/// `A p + b` (the rows of `A` in `rows`).
+/// `A p + b` (the rows of `A` in `rows`), at one point or four.
 #[inline(always)]
-fn image(rows: &Rows, b: &[f64; 4], p: [f64; 4]) -> [f64; 4] {
-    std::array::from_fn(|i| dot(rows[i], p) + b[i])
+fn image<L: Lane>(rows: &Rows, b: &[f64; 4], p: [L; 4]) -> [L; 4] {
+    each(|i| lanes::dot(rows[i].map(L::splat), p) + L::splat(b[i]))
 }
 
 pub(super) const IDENTITY: [[f64; 4]; 4] = [
@@ -186,9 +186,11 @@ impl Form {
         }
     }
 
-    /// The sign of `value(p)`, 1 or -1 (either on the surface): a box's without the square
-    /// root of its value, which the gradient of a shell of it would wait for.
-    fn side(&self, p: [f64; 4]) -> f64 {
+    /// The sign of `value(p)`, 1 or -1 (either on the surface), at one point or four: a box's
+    /// without the square root of its value, which the gradient of a shell of it would wait
+    /// for; another form's lane by lane.
+    #[inline(always)]
+    fn side<L: Lane>(&self, p: [L; 4]) -> L {
         match self {
             Form::Box {
                 rows,
@@ -196,26 +198,48 @@ impl Form {
                 half,
                 r,
                 sign,
-            } => sign * boxes::sign(image(rows, b, p), *half, *r),
-            _ if self.value(p) >= 0.0 => 1.0,
-            _ => -1.0,
+            } => L::splat(*sign) * boxes::sign(image(rows, b, p), *half, *r),
+            _ => L::each(|l| match self.value(lanes::lane(p, l)) >= 0.0 {
+                true => 1.0,
+                false => -1.0,
+            }),
         }
     }
 
-    /// The gradient of the distance at `p`, where it has one (none for a tiled ball): where two
-    /// faces or planes tie (an edge, a ridge) that of the first, as the tapes' `max` takes.
-    pub fn gradient(&self, p: [f64; 4]) -> Option<[f64; 4]> {
+    /// The gradient of the distance at `p` (one point or four), where it has one (none for a
+    /// tiled ball): where two faces or planes tie (an edge, a ridge) that of the first, as the
+    /// tapes' `max` takes.
+    #[inline(always)]
+    pub fn gradient<L: Lane>(&self, p: [L; 4]) -> Option<[L; 4]> {
+        match self {
+            // A shell holds a plane, ball, box or hull (`min_of_forms`): no recursion, so that
+            // four points' gradients stay in the vector code they are called from.
+            Form::Abs { f, .. } => {
+                let s = f.side(p);
+                Some(f.base_gradient(p)?.map(|x| s * x))
+            }
+            f => f.base_gradient(p),
+        }
+    }
+
+    /// `gradient` of a form that is no shell.
+    #[inline(always)]
+    fn base_gradient<L: Lane>(&self, p: [L; 4]) -> Option<[L; 4]> {
         // `A^T v`: back from the form's coordinates.
-        let back = |rows: &Rows, v: [f64; 4]| match rows.identity {
+        let back = |rows: &Rows, v: [L; 4]| match rows.identity {
             true => v,
-            false => std::array::from_fn(|j| (0..4).map(|i| rows[i][j] * v[i]).sum()),
+            false => each(|j| {
+                let term = |i: usize| L::splat(rows[i][j]) * v[i];
+                term(0) + term(1) + term(2) + term(3)
+            }),
         };
+        let times = |s: f64, v: [L; 4]| v.map(|x| L::splat(s) * x);
         Some(match self {
-            Form::Plane { g, .. } => *g,
+            Form::Plane { g, .. } => g.map(L::splat),
             Form::Ball { rows, b, sign, .. } => {
                 let u = image(rows, b, p);
-                let n = dot(u, u).sqrt();
-                back(rows, u.map(|x| sign * x / n))
+                let n = lanes::dot(u, u).sqrt();
+                back(rows, times(*sign, u).map(|x| x / n))
             }
             Form::Box {
                 rows,
@@ -225,22 +249,19 @@ impl Form {
                 ..
             } => back(
                 rows,
-                boxes::gradient(image(rows, b, p), *half).map(|x| sign * x),
+                times(*sign, boxes::gradient(image(rows, b, p), *half)),
             ),
             Form::Hull { planes, sign } => {
-                let (mut top, mut g) = (f64::NEG_INFINITY, [0.0; 4]);
+                let (mut top, mut g) = (L::splat(f64::NEG_INFINITY), [L::splat(0.0); 4]);
                 for (n, c) in planes {
-                    let v = dot(*n, p) + c;
-                    if v > top {
-                        (top, g) = (v, *n);
-                    }
+                    let v = lanes::dot(n.map(L::splat), p) + L::splat(*c);
+                    let higher = v.gt(top);
+                    top = L::select(higher, v, top);
+                    g = each(|i| L::select(higher, L::splat(n[i]), g[i]));
                 }
-                g.map(|x| sign * x)
+                times(*sign, g)
             }
-            Form::Abs { f, .. } => {
-                let s = f.side(p);
-                f.gradient(p)?.map(|x| s * x)
-            }
+            Form::Abs { .. } => unreachable!("a shell holds no shell"),
             Form::Lattice(_) => return None,
         })
     }
