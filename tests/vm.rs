@@ -1308,37 +1308,11 @@ fn four_rays_in_lanes_meet_as_each_alone() {
         };
         (p, d, (rng.random_range(0.5..50.0), 64))
     };
-    // NaN as one number: a NaN's bits are not kept by every operation.
-    let bits = |x: f64| {
-        if x.is_nan() {
-            f64::NAN.to_bits()
-        } else {
-            x.to_bits()
-        }
-    };
-    let identity: [[f64; 4]; 4] =
-        std::array::from_fn(|a| std::array::from_fn(|b| (a == b) as u8 as f64));
     let (mut met, mut total) = (0, 0);
     for i in 0..40000 {
         // Every third box or ball only moved (the identity's rows, met without products).
-        let form = match random_form(&mut rng, i % 9) {
-            Form::Box {
-                b, half, r, sign, ..
-            } if i % 3 == 0 => Form::Box {
-                rows: identity.into(),
-                b,
-                half,
-                r,
-                sign,
-            },
-            Form::Ball { b, r, sign, .. } if i % 3 == 0 => Form::Ball {
-                rows: identity.into(),
-                b,
-                r,
-                sign,
-            },
-            form => form,
-        };
+        let form = random_form(&mut rng, i % 9);
+        let form = if i % 3 == 0 { unturned(form) } else { form };
         let rays: Vec<_> = (0..1 + i % 4).map(|_| ray(&mut rng)).collect();
         let lanes = form.meet_lanes(&Rays::new(&rays));
         for (l, &(p, d, reach)) in rays.iter().enumerate() {
@@ -1363,7 +1337,7 @@ fn four_rays_in_lanes_meet_as_each_alone() {
     // the surface (it is not known to be outside), a `reach` that is no escape; from
     // infinity towards the box, it meets it at infinity.
     let unit = Form::Box {
-        rows: identity.into(),
+        rows: IDENTITY.into(),
         b: [0.0; 4],
         half: [1.0; 4],
         r: 0.0,
@@ -1510,37 +1484,14 @@ fn exact_forms_gradients_are_the_slopes_of_their_values() {
 /// numbers), at a ball's centre, and at points that are not finite.
 #[test]
 fn four_points_gradients_are_each_alone() {
-    const IDENTITY: [[f64; 4]; 4] = [
-        [1.0, 0.0, 0.0, 0.0],
-        [0.0, 1.0, 0.0, 0.0],
-        [0.0, 0.0, 1.0, 0.0],
-        [0.0, 0.0, 0.0, 1.0],
-    ];
     use hyperslice::math::lanes::{F4, gather, lane};
     let mut rng = Pcg64Mcg::seed_from_u64(34);
-    let bits = |x: f64| {
-        if x.is_nan() {
-            f64::NAN.to_bits()
-        } else {
-            x.to_bits()
-        }
-    };
     let mut faces = 0;
     for i in 0..20000 {
         use hyperslice::ir::exact::Form;
         // Every other box only moved, so that points snapped to its centre and faces are.
-        let form = match random_form(&mut rng, i % 9) {
-            Form::Box {
-                b, half, r, sign, ..
-            } if i % 2 == 0 => Form::Box {
-                rows: IDENTITY.into(),
-                b,
-                half,
-                r,
-                sign,
-            },
-            form => form,
-        };
+        let form = random_form(&mut rng, i % 9);
+        let form = if i % 2 == 0 { unturned(form) } else { form };
         let (centre, half) = match &form {
             Form::Box { b, half, .. } => (b.map(|x| -x), *half),
             _ => ([0.0; 4], [1.0; 4]),
@@ -1568,6 +1519,46 @@ fn four_points_gradients_are_each_alone() {
         }
     }
     assert!(faces > 3000, "only {faces} gradients along an axis");
+}
+
+/// A NaN as one number: a NaN's bits are not kept by every operation.
+fn bits(x: f64) -> u64 {
+    if x.is_nan() {
+        f64::NAN.to_bits()
+    } else {
+        x.to_bits()
+    }
+}
+
+const IDENTITY: [[f64; 4]; 4] = [
+    [1.0, 0.0, 0.0, 0.0],
+    [0.0, 1.0, 0.0, 0.0],
+    [0.0, 0.0, 1.0, 0.0],
+    [0.0, 0.0, 0.0, 1.0],
+];
+
+/// A box or ball only moved, not turned (the identity's rows, met without products); other
+/// forms as they are.
+fn unturned(form: hyperslice::ir::exact::Form) -> hyperslice::ir::exact::Form {
+    use hyperslice::ir::exact::Form;
+    match form {
+        Form::Box {
+            b, half, r, sign, ..
+        } => Form::Box {
+            rows: IDENTITY.into(),
+            b,
+            half,
+            r,
+            sign,
+        },
+        Form::Ball { b, r, sign, .. } => Form::Ball {
+            rows: IDENTITY.into(),
+            b,
+            r,
+            sign,
+        },
+        form => form,
+    }
 }
 
 /// Random orthonormal rows (a rotation), by Gram-Schmidt.
