@@ -579,8 +579,8 @@ fn normals_of(
     }));
 }
 
-/// The gradient at `p` of object `object`'s distance, the least of its `pieces` there.
-/// Of one piece, it needs no values (each costs a square root or two).
+/// The gradient at `p` of object `object`'s distance, the least of its `pieces` there (an
+/// object of several: `normals_of` takes those of one piece four at a time).
 fn piece_gradient(pieces: &Pieces, object: u32, p: DVec4) -> DVec4 {
     let p = p.to_array();
     let mut of = pieces
@@ -589,12 +589,11 @@ fn piece_gradient(pieces: &Pieces, object: u32, p: DVec4) -> DVec4 {
     let Some(mut at) = of.next() else {
         return DVec4::ZERO;
     };
-    let mut least = None;
+    let mut least = at.form.value(p);
     for piece in of {
-        let l = *least.get_or_insert_with(|| at.form.value(p));
         let v = piece.form.value(p);
-        if v < l || (l.is_nan() && !v.is_nan()) {
-            (at, least) = (piece, Some(v));
+        if v < least || (least.is_nan() && !v.is_nan()) {
+            (at, least) = (piece, v);
         }
     }
     at.form.gradient(p).map_or(DVec4::ZERO, DVec4::from_array)
