@@ -13,6 +13,7 @@ use crate::render::frame::{Build, Features, FrameObject, FrameScene, FrameSource
 use crate::render::lights::{Lights, Side, SphereLight};
 use crate::render::march::{Limits, MarcherKind};
 use crate::render::material::{Layout, Medium, Surface};
+use crate::render::shadow_cull::ShadowCull;
 use crate::scene::{Param, Scene};
 use crate::vm::Tape;
 use crate::vm::cells::{Cells, Placed, Roots, epsilon_at};
@@ -109,6 +110,7 @@ impl Frames {
                 self.shot.limits.epsilon,
             ),
             unlit: vec![],
+            shadow_culls: vec![],
             objects,
             medium: self.medium,
             sky: self.sky,
@@ -125,6 +127,14 @@ impl Frames {
         if fs.cells.is_none() && build.marcher != MarcherKind::Plain && !exact {
             fs.unlit = unlit(&program.ir, fs.lights.lights());
         }
+        // As the frame's rays meet them: off the cells, and not by the plain marcher.
+        let eps = self.shot.limits.epsilon;
+        let culls = (fs.field().pieces(false).filter(|_| fs.relax)).map(|pieces| {
+            (fs.lights.lights().iter())
+                .map(|l| ShadowCull::of(pieces, l, eps))
+                .collect()
+        });
+        fs.shadow_culls = culls.unwrap_or_default();
         fs
     }
 }

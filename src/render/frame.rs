@@ -9,6 +9,7 @@ use super::lights::Lights;
 use super::march::{Field, Limits, MarcherKind};
 use super::material::{Layout, Medium, Surface};
 use super::probe::{Choice, Probe, Sight};
+use super::shadow_cull::ShadowCull;
 use crate::vm::Tape;
 use crate::vm::cells::Cells;
 use crate::vm::escape::Escape;
@@ -98,6 +99,11 @@ pub struct FrameScene {
     /// (`Escape::pieces`), or under `--marcher plain` (the baseline takes no shortcut).
     #[doc(hidden)]
     pub unlit: Vec<Tape>,
+    /// For each of `lights`, where every ray meets the scene's exact pieces (and not under
+    /// `--marcher plain`), the pieces its shadow rays from most points need not meet
+    /// (`ShadowCull`); empty elsewhere.
+    #[doc(hidden)]
+    pub shadow_culls: Vec<Option<ShadowCull>>,
     /// The scene and interior tapes pruned to regions of space: what rays march through
     /// (none for the plain marcher, which marches the whole tapes).
     #[doc(hidden)]

@@ -757,9 +757,10 @@ fn enter_ball(o: DVec4, d: DVec4, center: DVec4, radius: f64) -> Option<f64> {
 /// frame marches its whole tape, a ray from outside objects marches its light's unlit tape
 /// (`FrameScene::unlit`) only as far as the light's ball, and sees the light if nothing is
 /// in the way: the steps that close in on the light's own surface, shorter and shorter where
-/// the ray meets it at a slant, were half of a lit room's steps. Elsewhere it marches the
-/// frame's field as far as past the light, and sees it if the light is the first surface
-/// it meets.
+/// the ray meets it at a slant, were half of a lit room's steps. Where every ray meets the
+/// scene's exact pieces, a ray from where its light's cull holds (`ShadowCull`) meets fewer of
+/// them. Elsewhere it marches the frame's field as far as past the light, and sees it if the
+/// light is the first surface it meets.
 fn march_shadows(
     fs: &FrameScene,
     s: &Settings,
@@ -775,17 +776,22 @@ fn march_shadows(
         batch,
         hits,
     } = shadows;
+    let eps = s.shot.limits.epsilon;
+    let cull = |light: usize| fs.shadow_culls.get(light).and_then(Option::as_ref);
     queue.clear();
     queue.extend(
         (pending.iter().zip(rays.iter()).enumerate()).map(|(i, (sh, r))| {
-            let unlit = !r.interior && (sh.light as usize) < fs.unlit.len();
-            (if unlit { sh.light + 1 } else { 0 }, i as u32)
+            let light = sh.light as usize;
+            let own = !r.interior
+                && (light < fs.unlit.len() || cull(light).is_some_and(|c| c.holds(r.o, eps)));
+            (if own { sh.light + 1 } else { 0 }, i as u32)
         }),
     );
     queue.sort_unstable();
     stats.shadow_rays += rays.len() as u64;
     for group in queue.chunk_by(|a, b| a.0 == b.0) {
-        let unlit = group[0].0.checked_sub(1).map(|k| &fs.unlit[k as usize]);
+        let light = group[0].0.checked_sub(1).map(|k| k as usize);
+        let unlit = light.and_then(|k| fs.unlit.get(k));
         let field = unlit.map_or(fs.field(), |tape| Field {
             scene: tape,
             ..fs.field()
@@ -797,7 +803,10 @@ fn march_shadows(
             Ray { tmax, ..r }
         }));
         let before = (marcher.evaluations, marcher.instructions);
-        marcher.march(field, batch, s.shot.limits, hits);
+        match light.and_then(cull).filter(|_| unlit.is_none()) {
+            Some(cull) => marcher.meet(|_| &cull.pieces, batch, s.shot.limits, hits),
+            None => marcher.march(field, batch, s.shot.limits, hits),
+        }
         stats.count_work(marcher, before);
         for (&(_, i), &hit) in group.iter().zip(hits.iter()) {
             let sh = &pending[i as usize];

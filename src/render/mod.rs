@@ -25,6 +25,8 @@ pub mod phase;
 pub mod probe;
 pub mod sampler;
 pub mod sampling;
+#[doc(hidden)]
+pub mod shadow_cull;
 
 pub use integrator::Stats;
 pub use march::{Limits, MarcherKind};

@@ -10,6 +10,9 @@
 mod balls;
 mod boxes;
 mod cover;
+mod free;
+#[cfg(test)]
+pub(crate) use free::testing;
 mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};

@@ -298,31 +298,8 @@ impl Marcher {
         // A scene of a few exact pieces, off the cells (which `--marcher cells` keeps): each
         // ray ends where it first meets one.
         if field.pieces(false).is_some() {
-            self.state.clear();
-            // Four at a time, where they march the same pieces (`meet_lanes`).
-            for (group, hits) in rays.chunks(4).zip(hits.chunks_mut(4)) {
-                let interior = group[0].interior;
-                let pieces = |r: &Ray| field.pieces(r.interior).expect("set for both or neither");
-                if group.iter().all(|r| r.interior == interior) {
-                    let four = Rays::of(group.len(), |l| {
-                        let r = &group[l];
-                        (r.o.to_array(), r.d.to_array(), (r.tmax, CELLS))
-                    });
-                    let met = meet_lanes(pieces(&group[0]), &four);
-                    for ((r, hit), met) in group.iter().zip(hits).zip(met) {
-                        *hit = end_met(met, r, limits.epsilon);
-                    }
-                } else {
-                    for (r, hit) in group.iter().zip(hits) {
-                        let met = meet(pieces(r), r.o, r.d, (r.tmax, CELLS));
-                        *hit = end_met(met, r, limits.epsilon);
-                    }
-                }
-                let work: usize = group.iter().map(|r| pieces(r).len() * PIECE_WORK).sum();
-                self.instructions += work as u64;
-            }
-            self.evaluations += rays.len() as u64;
-            return;
+            let pieces = |r: &Ray| field.pieces(r.interior).expect("set for both or neither");
+            return self.meet(pieces, rays, limits, hits);
         }
         let keep = field.escape.unbounded();
         self.state.clear();
@@ -342,6 +319,43 @@ impl Marcher {
             Some(cells) => self.march_cells(cells, field.escape, rays, limits, hits),
             None => self.march_whole(field, rays, limits, hits),
         }
+    }
+
+    /// Where each ray of `rays` first meets the exact pieces `pieces(ray)` gives it, once,
+    /// before its `tmax`, into `hits`: the march of a frame whose scene is a few exact pieces
+    /// (`Field::pieces`), or of shadow rays that meet fewer of them.
+    pub fn meet<'p>(
+        &mut self,
+        pieces: impl Fn(&Ray) -> &'p Pieces,
+        rays: &[Ray],
+        limits: Limits,
+        hits: &mut Vec<Hit>,
+    ) {
+        hits.clear();
+        hits.resize(rays.len(), Hit::Beyond);
+        self.state.clear();
+        // Four at a time, where they meet the same pieces (`meet_lanes`).
+        for (group, hits) in rays.chunks(4).zip(hits.chunks_mut(4)) {
+            let first = pieces(&group[0]);
+            if group.iter().all(|r| std::ptr::eq(pieces(r), first)) {
+                let four = Rays::of(group.len(), |l| {
+                    let r = &group[l];
+                    (r.o.to_array(), r.d.to_array(), (r.tmax, CELLS))
+                });
+                let met = meet_lanes(first, &four);
+                for ((r, hit), met) in group.iter().zip(hits).zip(met) {
+                    *hit = end_met(met, r, limits.epsilon);
+                }
+            } else {
+                for (r, hit) in group.iter().zip(hits) {
+                    let met = meet(pieces(r), r.o, r.d, (r.tmax, CELLS));
+                    *hit = end_met(met, r, limits.epsilon);
+                }
+            }
+            let work: usize = group.iter().map(|r| pieces(r).len() * PIECE_WORK).sum();
+            self.instructions += work as u64;
+        }
+        self.evaluations += rays.len() as u64;
     }
 
     /// The steps each ray of the last `march` took.
