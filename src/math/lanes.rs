@@ -8,7 +8,7 @@
 //! outside a formula's domain (a NaN, a subnormal) it computes on a stand-in and the select
 //! throws that away.
 
-use std::ops::{Add, BitAnd, Div, Mul, Neg, Sub};
+use std::ops::{Add, BitAnd, BitOr, Div, Mul, Neg, Not, Sub};
 
 /// One number or several, with the `f64` operations the samplers use, lane by lane.
 pub trait Lane:
@@ -20,7 +20,10 @@ pub trait Lane:
     + Neg<Output = Self>
 {
     /// Lane-wise truth values: `bool` for `f64`.
-    type Mask: Copy + BitAnd<Output = Self::Mask>;
+    type Mask: Copy
+        + BitAnd<Output = Self::Mask>
+        + BitOr<Output = Self::Mask>
+        + Not<Output = Self::Mask>;
     /// How many lanes.
     const N: usize;
     /// `x` in every lane.
@@ -37,7 +40,15 @@ pub trait Lane:
     fn max(self, o: Self) -> Self;
     fn lt(self, o: Self) -> Self::Mask;
     fn gt(self, o: Self) -> Self::Mask;
+    fn le(self, o: Self) -> Self::Mask;
+    fn ge(self, o: Self) -> Self::Mask;
+    fn eq(self, o: Self) -> Self::Mask;
     fn is_finite(self) -> Self::Mask;
+    fn is_nan(self) -> Self::Mask;
+    /// `f64::copysign`: the size of `self`, the sign bit of `sign`.
+    fn copysign(self, sign: Self) -> Self;
+    /// Whether `m` holds in every lane.
+    fn all(m: Self::Mask) -> bool;
     /// `a` where `m` holds, else `b`.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
 }
@@ -82,8 +93,32 @@ impl Lane for f64 {
         self > o
     }
     #[inline(always)]
+    fn le(self, o: f64) -> bool {
+        self <= o
+    }
+    #[inline(always)]
+    fn ge(self, o: f64) -> bool {
+        self >= o
+    }
+    #[inline(always)]
+    fn eq(self, o: f64) -> bool {
+        self == o
+    }
+    #[inline(always)]
     fn is_finite(self) -> bool {
         f64::is_finite(self)
+    }
+    #[inline(always)]
+    fn is_nan(self) -> bool {
+        f64::is_nan(self)
+    }
+    #[inline(always)]
+    fn copysign(self, sign: f64) -> f64 {
+        f64::copysign(self, sign)
+    }
+    #[inline(always)]
+    fn all(m: bool) -> bool {
+        m
     }
     #[inline(always)]
     fn select(m: bool, a: f64, b: f64) -> f64 {
@@ -95,9 +130,24 @@ impl Lane for f64 {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct F4(pub [f64; 4]);
 
-/// Four truth values, one per lane of an `F4`.
+/// Four truth values, one per lane of an `F4`: all ones or all zeros, as a vector compare
+/// leaves them, so that selects and the masks' logic stay in the lanes of vectors (`bool`s
+/// went through bytes and back, lane by lane).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct M4(pub [bool; 4]);
+pub struct M4([u64; 4]);
+
+impl M4 {
+    /// Lane `l`.
+    #[inline(always)]
+    pub fn at(self, l: usize) -> bool {
+        self.0[l] != 0
+    }
+
+    #[inline(always)]
+    fn of(f: impl Fn(usize) -> bool) -> M4 {
+        M4(each(|l| if f(l) { u64::MAX } else { 0 }))
+    }
+}
 
 /// `[f(0), f(1), f(2), f(3)]`, the form the compiler puts in one vector (loops over lanes and
 /// `array::from_fn` with large closures it left scalar).
@@ -122,6 +172,15 @@ lane_op!(Sub, sub, F4, -);
 lane_op!(Mul, mul, F4, *);
 lane_op!(Div, div, F4, /);
 lane_op!(BitAnd, bitand, M4, &);
+lane_op!(BitOr, bitor, M4, |);
+
+impl Not for M4 {
+    type Output = M4;
+    #[inline(always)]
+    fn not(self) -> M4 {
+        M4(each(|l| !self.0[l]))
+    }
+}
 
 impl Neg for F4 {
     type Output = F4;
@@ -164,19 +223,46 @@ impl Lane for F4 {
     }
     #[inline(always)]
     fn lt(self, o: F4) -> M4 {
-        M4(each(|l| self.0[l] < o.0[l]))
+        M4::of(|l| self.0[l] < o.0[l])
     }
     #[inline(always)]
     fn gt(self, o: F4) -> M4 {
-        M4(each(|l| self.0[l] > o.0[l]))
+        M4::of(|l| self.0[l] > o.0[l])
+    }
+    #[inline(always)]
+    fn le(self, o: F4) -> M4 {
+        M4::of(|l| self.0[l] <= o.0[l])
+    }
+    #[inline(always)]
+    fn ge(self, o: F4) -> M4 {
+        M4::of(|l| self.0[l] >= o.0[l])
+    }
+    #[inline(always)]
+    fn eq(self, o: F4) -> M4 {
+        M4::of(|l| self.0[l] == o.0[l])
     }
     #[inline(always)]
     fn is_finite(self) -> M4 {
-        M4(each(|l| self.0[l].is_finite()))
+        M4::of(|l| self.0[l].is_finite())
+    }
+    #[inline(always)]
+    fn is_nan(self) -> M4 {
+        M4::of(|l| self.0[l].is_nan())
+    }
+    #[inline(always)]
+    fn copysign(self, sign: F4) -> F4 {
+        F4(each(|l| self.0[l].copysign(sign.0[l])))
+    }
+    #[inline(always)]
+    fn all(m: M4) -> bool {
+        m.0[0] & m.0[1] & m.0[2] & m.0[3] != 0
     }
     #[inline(always)]
     fn select(m: M4, a: F4, b: F4) -> F4 {
-        F4(each(|l| if m.0[l] { a.0[l] } else { b.0[l] }))
+        let bits = |x: F4, l: usize| x.0[l].to_bits();
+        F4(each(|l| {
+            f64::from_bits((bits(a, l) & m.0[l]) | (bits(b, l) & !m.0[l]))
+        }))
     }
 }
 

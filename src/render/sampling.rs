@@ -399,7 +399,7 @@ mod tests {
                     "{v:?}"
                 );
                 let alone = sample_balls(v, x[1], v[0].abs(), [v[0], v[1], v[2]]);
-                assert_eq!(drawn.0[l], alone.0, "{v:?}");
+                assert_eq!(drawn.at(l), alone.0, "{v:?}");
                 let got = [lane(wo, l).as_slice(), &[pdf.0[l], distance.0[l]]].concat();
                 let want = [alone.1.as_slice(), &[alone.2, alone.3]].concat();
                 assert!(!alone.0 || same(&got, &want), "{v:?}");

@@ -25,6 +25,7 @@ use crate::ir::lower::nearest;
 use crate::ir::precise::precise;
 use crate::ir::prune::Pruned;
 use crate::ir::{Graph, Id, Node, Un};
+use crate::math::lanes::{F4, Lane, each};
 use glam::DVec4;
 use std::sync::OnceLock;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -704,13 +705,37 @@ pub fn meet_lanes(pieces: &Pieces, rays: &Rays) -> [Met; 4] {
         return met;
     }
     crate::simd::wide!({
+        // `take` and `cut` lane by lane, as selects in the lanes of vectors.
+        let inf = F4::splat(f64::INFINITY);
+        let (mut near, mut first, mut clear) = ((inf, F4::splat(0.0)), (inf, F4::splat(0.0)), inf);
+        let mut cells = [0; 4];
         for piece in pieces.iter() {
             let m = piece.form.meet_lanes(rays);
-            for (l, met) in met.iter_mut().enumerate() {
-                met.take_numbers(piece, (m.value[l], m.first[l]), (m.clear[l], m.cells[l]));
-            }
+            let object = F4::splat(piece.object);
+            let nearer = |(d, o): (F4, F4), value: F4| {
+                // NaN is below nothing.
+                let below = value.lt(d);
+                (F4::select(below, value, d), F4::select(below, object, o))
+            };
+            near = nearer(near, F4(m.value));
+            (clear, cells) = (clear.min(F4(m.clear)), each(|l| cells[l] + m.cells[l]));
+            first = nearer(first, F4(m.first));
         }
-        met.map(Met::cut)
+        // Beyond where one piece's crossing gave up, it may be met before the first of the
+        // others.
+        let beyond = first.0.gt(clear);
+        first = (
+            F4::select(beyond, inf, first.0),
+            F4::select(beyond, F4::splat(0.0), first.1),
+        );
+        each(|l| Met {
+            near_d: near.0.0[l],
+            first_t: first.0.0[l],
+            clear: clear.0[l],
+            near_object: near.1.0[l],
+            first_object: first.1.0[l],
+            cells: cells[l],
+        })
     })
 }
 

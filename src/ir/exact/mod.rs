@@ -16,7 +16,7 @@ pub(crate) use free::testing;
 mod lattice;
 
 use super::{Bin, Graph, Id, K, Node, Un, Var};
-use crate::math::lanes::{self, Lane, each};
+use crate::math::lanes::{self, F4, Lane, each};
 pub use balls::{Meetings, Pieces};
 pub use cover::{Cover, cover};
 pub use lattice::{CELLS, Tiled, Tiling};
@@ -324,10 +324,9 @@ impl Form {
             }
             Form::Ball { rows, b, r, sign } => {
                 let (u, w) = rays.local(rows, b);
-                for l in 0..4 {
-                    let (u, w) = (lane(&u, l), lane(&w, l));
-                    (out.value[l], out.first[l]) = ball_met::<false>(u, w, *r, *sign, shell);
-                }
+                let (u, w) = (each(|i| F4(u[i])), each(|i| F4(w[i])));
+                let (value, first) = ball_met::<F4, true>(u, w, *r, *sign, shell);
+                (out.value, out.first) = (value.0, first.0);
             }
             Form::Box {
                 rows,
@@ -363,7 +362,7 @@ impl Form {
             }
             Form::Ball { rows, b, r, sign } => {
                 let (u, w) = local(rows, b, p, d);
-                let (value, first) = ball_met::<true>(u, w, *r, *sign, shell);
+                let (value, first) = ball_met::<f64, true>(u, w, *r, *sign, shell);
                 (value, (!first.is_nan()).then_some(first))
             }
             Form::Box {
@@ -449,11 +448,11 @@ impl Form {
 /// shell `|f| - k` (`shell` `Some(k)`) on the side of `f` it is on, else `f` itself.
 /// A select, not a branch (`Form::meet_lanes`).
 #[inline(always)]
-fn side(v: f64, shell: Option<f64>) -> (f64, f64) {
+fn side<L: Lane>(v: L, shell: Option<f64>) -> (L, f64) {
     // `v >= 0` fails for NaN too, which takes the negative side.
-    let s = match (shell.is_some(), v >= 0.0) {
-        (true, false) => -1.0,
-        _ => 1.0,
+    let s = match shell {
+        Some(_) => L::select(v.ge(L::splat(0.0)), L::splat(1.0), L::splat(-1.0)),
+        None => L::splat(1.0),
     };
     (s, shell.unwrap_or(0.0))
 }
@@ -473,36 +472,32 @@ fn plane_met(g: [f64; 4], c: f64, p: [f64; 4], d: [f64; 4], shell: Option<f64>) 
     (value, first)
 }
 
-/// `plane_met` for the ball `sign (|u| - r)` met by the ray `u + t w` (in its coordinates).
-/// With `EARLY`, a ray that passes wide of it takes a branch past the roots: one ray alone
-/// is met sooner so, four in lanes are not.
+/// `plane_met` for the ball `sign (|u| - r)` met by the ray `u + t w` (in its coordinates),
+/// one ray or four in lanes. With `EARLY`, rays that all pass wide of it take a branch past
+/// the roots: one ray alone is met sooner so, and four that all miss.
 #[inline(always)]
-fn ball_met<const EARLY: bool>(
-    u: [f64; 4],
-    w: [f64; 4],
+fn ball_met<L: Lane, const EARLY: bool>(
+    u: [L; 4],
+    w: [L; 4],
     r: f64,
     sign: f64,
     shell: Option<f64>,
-) -> (f64, f64) {
-    let n = dot(u, u).sqrt();
-    let (s, k) = side(sign * (n - r), shell);
+) -> (L, L) {
+    let n = lanes::dot(u, u).sqrt();
+    let (s, k) = side(L::splat(sign) * (n - L::splat(r)), shell);
     // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
-    let (sign, r) = (s * sign, r + s * sign * k);
-    let (a, half_b, uu) = (dot(w, w), dot(u, w), dot(u, u));
-    if EARLY && wide(a, half_b, uu, r) {
-        return (sign * (n - r), f64::NAN);
+    let sign = s * L::splat(sign);
+    let r = L::splat(r) + sign * L::splat(k);
+    let (a, half_b, uu) = (lanes::dot(w, w), lanes::dot(u, w), lanes::dot(u, u));
+    let nan = L::splat(f64::NAN);
+    let wide = wide(a, half_b, uu, r);
+    if EARLY && L::all(wide) {
+        return (sign * (n - r), nan);
     }
     let (meets, lo, hi) = roots(a, half_b, uu, r);
-    let ahead = match (lo >= 0.0, hi >= 0.0) {
-        (true, _) => lo,
-        (false, true) => hi,
-        (false, false) => f64::NAN,
-    };
-    let first = match meets & !wide(a, half_b, uu, r) {
-        true => ahead,
-        false => f64::NAN,
-    };
-    (sign * (n - r), first)
+    let zero = L::splat(0.0);
+    let ahead = L::select(lo.ge(zero), lo, L::select(hi.ge(zero), hi, nan));
+    (sign * (n - r), L::select(meets & !wide, ahead, nan))
 }
 
 /// A ray to meet forms with: its point, direction and how far it looks (`Form::meet`'s
@@ -605,21 +600,22 @@ fn ball_roots(u: [f64; 4], w: [f64; 4], r: f64) -> Option<(f64, f64)> {
 /// Whether the ray misses the ball by far more than the rounding of `roots` (`a = w . w`,
 /// `half_b = u . w`, `uu = u . u`).
 #[inline(always)]
-fn wide(a: f64, half_b: f64, uu: f64, r: f64) -> bool {
-    half_b * half_b - a * (uu - r * r) < -1e-9 * a * (uu + r * r)
+fn wide<L: Lane>(a: L, half_b: L, uu: L, r: L) -> L::Mask {
+    (half_b * half_b - a * (uu - r * r)).lt(L::splat(-1e-9) * a * (uu + r * r))
 }
 
 /// The roots of `|u + t w| = r` in order, without branches (for the moved balls' loop,
-/// `balls`): whether there are any (none where the ball is empty, the direction zero, or
-/// the discriminant negative or NaN, from an infinite copy), and the two.
+/// `balls`, and four rays in lanes): whether there are any (none where the ball is empty, the
+/// direction zero, or the discriminant negative or NaN, from an infinite copy), and the two.
 #[inline(always)]
-fn roots(a: f64, half_b: f64, uu: f64, r: f64) -> (bool, f64, f64) {
+fn roots<L: Lane>(a: L, half_b: L, uu: L, r: L) -> (L::Mask, L, L) {
+    let zero = L::splat(0.0);
     let norm = uu.sqrt();
     let c = (norm - r) * (norm + r);
     let disc = half_b * half_b - a * c;
     let q = -(half_b + disc.sqrt().copysign(half_b));
-    let (t0, t1) = (q / a, if q != 0.0 { c / q } else { 0.0 });
-    let meets = !((r <= 0.0) | (a == 0.0) | (disc < 0.0) | disc.is_nan());
+    let (t0, t1) = (q / a, L::select(q.eq(zero), zero, c / q));
+    let meets = !(r.le(zero) | a.eq(zero) | disc.lt(zero) | disc.is_nan());
     (meets, t0.min(t1), t0.max(t1))
 }
 

@@ -89,7 +89,7 @@ fn scatter_four(
         let mut sampled = false;
         if let Some(lights) = nee.lights {
             if let (Some((i, _)), Some((drawn, wo, pdf, distance, local))) = (draws[l], light) {
-                let numbers = (drawn.0[l], lane(wo, l), pdf.at(l), distance.at(l));
+                let numbers = (drawn.at(l), lane(wo, l), pdf.at(l), distance.at(l));
                 let ls = lights.drawn(i, numbers);
                 // `queue` asks for the light sample's own direction, which the lanes turned
                 // into the vertex's frame already (`local`).
