@@ -6,23 +6,18 @@
 //! convex, so leaving it is entering it along the reversed ray from beyond its far side.
 
 use super::dot;
-use crate::math::lanes::{self, Lane, each};
+use crate::math::lanes::{self, F4, Lane, M4, each};
 
 /// Four points or directions, coordinate by coordinate (`x[i][lane]`): what `meet_lanes`
 /// takes, so that every step is a loop over the lanes, which the compiler puts in the lanes of
 /// a vector.
 pub type Four = [[f64; 4]; 4];
 
-/// Four copies of `x`, for one point met as four (the lanes' code is the only one).
-#[inline(always)]
-fn broadcast(x: [f64; 4]) -> Four {
-    x.map(|c| [c; 4])
-}
-
 /// The signed distance to `box(u) <= r`.
 #[inline(always)]
 pub fn value(u: [f64; 4], half: [f64; 4], r: f64) -> f64 {
-    values(&broadcast(u), half, r).0[0]
+    // Four copies of `u`: the lanes' code is the only one.
+    values(&u.map(F4::splat), half, r).0.at(0)
 }
 
 /// The gradient of the distance to the sharp box of half-extents `half` at `u` (one point or
@@ -60,39 +55,32 @@ pub fn gradient<L: Lane>(u: [L; 4], half: [f64; 4]) -> [L; 4] {
 pub fn sign<L: Lane>(u: [L; 4], half: [f64; 4], r: f64) -> L {
     // One point fills all four lanes. The value's square root is dead code here, and left
     // out.
-    let u: Four = u.map(|x| each(|l| x.at(l % L::N)));
+    let u: [F4; 4] = u.map(|x| F4::each(|l| x.at(l % L::N)));
     let signs = values(&u, half, r).1;
-    L::each(|l| signs[l])
-}
-
-/// `a . b` lane by lane, in `dot`'s order.
-#[inline(always)]
-fn dots(a: &Four, b: &Four) -> [f64; 4] {
-    each(|l| a[0][l] * b[0][l] + a[1][l] * b[1][l] + a[2][l] * b[2][l] + a[3][l] * b[3][l])
+    L::each(|l| signs.at(l))
 }
 
 /// `value` and `sign` at four points: `math::kernel::box_dist`'s operations in its order for
 /// the value (`Real::max` and `min`, which keep `x` where a comparison with NaN fails).
 #[inline(always)]
-fn values(u: &Four, half: [f64; 4], r: f64) -> ([f64; 4], [f64; 4]) {
-    let max = |x: f64, y: f64| if y > x { y } else { x };
-    let min = |x: f64, y: f64| if y < x { y } else { x };
-    let q: Four = each(|i| each(|l| u[i][l].abs() - half[i]));
-    let o: Four = each(|i| each(|l| max(q[i][l], 0.0)));
-    let length = dots(&o, &o);
-    let most = each(|l| min(max(max(q[0][l], q[1][l]), max(q[2][l], q[3][l])), 0.0));
-    let value = each(|l| length[l].sqrt() + most[l] - r);
+fn values(u: &[F4; 4], half: [f64; 4], r: f64) -> (F4, F4) {
+    let zero = F4::splat(0.0);
+    let max = |x: F4, y: F4| F4::select(y.gt(x), y, x);
+    let min = |x: F4, y: F4| F4::select(y.lt(x), y, x);
+    let q: [F4; 4] = each(|i| u[i].abs() - F4::splat(half[i]));
+    let o = q.map(|q| max(q, zero));
+    let length = lanes::dot(o, o);
+    let most = min(max(max(q[0], q[1]), max(q[2], q[3])), zero);
+    let value = length.sqrt() + most - F4::splat(r);
     // The sign's own parts, with `f64::max`, which takes the other number where one is NaN
     // (as `sign` always has); both sides' tests, without branches.
-    let p: Four = each(|i| each(|l| q[i][l].max(0.0)));
-    let far = dots(&p, &p);
-    let top = each(|l| q[0][l].max(q[1][l]).max(q[2][l].max(q[3][l])));
-    let sign = each(|l| {
-        let out = top[l] > 0.0;
-        let outside = (out & ((r <= 0.0) | (far[l] >= r * r))) | (!out & (top[l] - r >= 0.0));
-        if outside { 1.0 } else { -1.0 }
-    });
-    (value, sign)
+    let p = q.map(|q| q.max(zero));
+    let far = lanes::dot(p, p);
+    let top = q[0].max(q[1]).max(q[2].max(q[3]));
+    let out = top.gt(zero);
+    let rr = F4::splat(r);
+    let outside = (out & (rr.le(zero) | far.ge(rr * rr))) | (!out & (top - rr).ge(zero));
+    (value, F4::select(outside, F4::splat(1.0), F4::splat(-1.0)))
 }
 
 /// How four rays `u + t w` (`t` in units of `w`, which a row of `A` that is zero leaves shorter
@@ -108,36 +96,47 @@ pub fn meet_lanes(
     shell: Option<f64>,
     live: usize,
 ) -> ([f64; 4], [f64; 4]) {
-    let (v, side) = values(u, half, r);
+    let (u, w): ([F4; 4], [F4; 4]) = (each(|i| F4(u[i])), each(|i| F4(w[i])));
+    let zero = F4::splat(0.0);
+    let (v, side) = values(&u, half, r);
     // The side from the sign alone, which needs no square root: the meeting then need not
     // wait for one (`v` is only the value's).
-    let (mut value, mut grown, mut inside) = ([0.0; 4], [0.0; 4], [false; 4]);
-    for l in 0..4 {
-        let (s, k) = super::side(sign * side[l], shell);
-        let sign = s * sign;
-        (value[l], grown[l], inside[l]) = (sign * v[l] - k, r + sign * k, sign < 0.0);
-    }
+    let (s, k) = super::side(F4::splat(sign) * side, shell);
+    let sign = s * F4::splat(sign);
+    let (value, grown) = (sign * v - F4::splat(k), F4::splat(r) + sign * F4::splat(k));
+    let inside = sign.lt(zero);
     // The sharp box each ray meets, grown by its `r'`: half-extents lane by lane.
-    let g: Four = each(|i| each(|l| half[i] + grown[l]));
+    let g: [F4; 4] = each(|i| F4::splat(half[i]) + grown);
     // Rays that start inside (in a hollow shell's room, all of them) cannot pass it by.
-    let pass = match inside.iter().all(|&i| i) {
-        true => [false; 4],
-        false => passes((u, w), (half, &g), (grown, inside)),
+    let pass = match F4::all(inside) {
+        true => !inside,
+        false => passes((&u, &w), (half, &g), (grown, inside)),
     };
     // A ray meets the surface where it starts unless the value there is positive (a NaN
     // value too: where it starts is not known to be outside).
-    let ahead = each(|l| value[l] > 0.0);
-    let mut first = each(|l| if ahead[l] { f64::NAN } else { 0.0 });
+    let ahead = value.gt(zero);
+    let mut first = F4::select(ahead, F4::splat(f64::NAN), zero).0;
     // Rays that start in the set or pass it by, as most do, need not span it.
-    if (0..live).all(|l| !ahead[l] | pass[l]) {
-        return (value, first);
+    let spans = !ahead | pass;
+    if (0..live).all(|l| spans.at(l)) {
+        return (value.0, first);
     }
-    let spans = slabs((u, w), &g);
-    for l in (0..live).filter(|&l| ahead[l] & !pass[l]) {
-        let ray = (super::lane(u, l), super::lane(w, l));
-        first[l] = finish(ray, (half, grown[l]), inside[l], spans[l]).unwrap_or(f64::NAN);
+    let (enter, leave) = slabs((&u, &w), &g);
+    // A sharp box is met where the ray spans it: where it enters from outside, where it
+    // leaves from inside, or where it starts for a point inside that the slabs round out of
+    // (on the surface).
+    let sharp = grown.le(zero);
+    let nan = F4::splat(f64::NAN);
+    let across = enter.le(leave);
+    let out = F4::select(across & leave.ge(zero), enter.max(zero), nan);
+    let met = F4::select(inside, F4::select(across, leave.max(zero), zero), out);
+    first = F4::select(spans | !sharp, F4(first), met).0;
+    for l in (0..live).filter(|&l| !spans.at(l) & !sharp.at(l)) {
+        let ray = (lanes::lane(u, l), lanes::lane(w, l));
+        let span = (enter.at(l), leave.at(l));
+        first[l] = finish(ray, (half, grown.at(l)), inside.at(l), span).unwrap_or(f64::NAN);
     }
-    (value, first)
+    (value.0, first)
 }
 
 /// Whether each ray, from outside, passes the box `box <= r` by (most rays from outside
@@ -150,25 +149,19 @@ pub fn meet_lanes(
 /// cancels far away. `g` is `half + r`, lane by lane.
 #[inline(always)]
 fn passes(
-    (u, w): (&Four, &Four),
-    (half, g): ([f64; 4], &Four),
-    (r, inside): ([f64; 4], [bool; 4]),
-) -> [bool; 4] {
-    let corner = dot(half, half).sqrt();
-    let grown = dots(g, g);
-    let reach = each(|l| corner + r[l]);
-    let rr = each(|l| {
-        if r[l] > 0.0 {
-            reach[l] * reach[l]
-        } else {
-            grown[l]
-        }
-    });
-    let (b, ww, uu) = (dots(u, w), dots(w, w), dots(u, u));
-    let s = each(|l| b[l] / ww[l]);
-    let off: Four = each(|i| each(|l| u[i][l] - s[l] * w[i][l]));
-    let oo = dots(&off, &off);
-    each(|l| !inside[l] & (uu[l] > rr[l]) & ((b[l] > 0.0) | (oo[l] > rr[l] * (1.0 + 1e-12))))
+    (u, w): (&[F4; 4], &[F4; 4]),
+    (half, g): ([f64; 4], &[F4; 4]),
+    (r, inside): (F4, M4),
+) -> M4 {
+    let corner = F4::splat(dot(half, half).sqrt());
+    let reach = corner + r;
+    let rr = F4::select(r.gt(F4::splat(0.0)), reach * reach, lanes::dot(*g, *g));
+    let (b, ww, uu) = (lanes::dot(*u, *w), lanes::dot(*w, *w), lanes::dot(*u, *u));
+    let s = b / ww;
+    let off: [F4; 4] = each(|i| u[i] - s * w[i]);
+    let oo = lanes::dot(off, off);
+    let wide = oo.gt(rr * F4::splat(1.0 + 1e-12));
+    !inside & uu.gt(rr) & (b.gt(F4::splat(0.0)) | wide)
 }
 
 /// Where each line `u + t w` is inside the sharp box of half-extents `g`: `(enter,
@@ -176,28 +169,30 @@ fn passes(
 /// coordinate: the two planes' roots are within 1.5 ulp of dividing each. A direction too
 /// small to invert (zero, or subnormal) runs along the planes.
 #[inline(always)]
-fn slabs((u, w): (&Four, &Four), g: &Four) -> [(f64, f64); 4] {
-    let inv: Four = each(|i| each(|l| 1.0 / w[i][l]));
-    let a: Four = each(|i| each(|l| (-g[i][l] - u[i][l]) * inv[i][l]));
-    let b: Four = each(|i| each(|l| (g[i][l] - u[i][l]) * inv[i][l]));
-    let (mut enter, mut leave) = ([f64::NEG_INFINITY; 4], [f64::INFINITY; 4]);
-    let mut empty = [false; 4];
-    for i in 0..4 {
-        let along = each(|l| !inv[i][l].is_finite());
-        empty = each(|l| empty[l] | (g[i][l] < 0.0) | (along[l] & (u[i][l].abs() > g[i][l])));
-        let near = each(|l| enter[l].max(a[i][l].min(b[i][l])));
-        let far = each(|l| leave[l].min(a[i][l].max(b[i][l])));
-        enter = each(|l| if along[l] { enter[l] } else { near[l] });
-        leave = each(|l| if along[l] { leave[l] } else { far[l] });
+fn slabs((u, w): (&[F4; 4], &[F4; 4]), g: &[F4; 4]) -> (F4, F4) {
+    let inf = F4::splat(f64::INFINITY);
+    let inv: [F4; 4] = each(|i| F4::splat(1.0) / w[i]);
+    let along: [M4; 4] = each(|i| !inv[i].is_finite());
+    let gap: [M4; 4] = each(|i| g[i].lt(F4::splat(0.0)) | (along[i] & u[i].abs().gt(g[i])));
+    let empty = gap[0] | gap[1] | gap[2] | gap[3];
+    let (mut enter, mut leave) = (-inf, inf);
+    for (i, &along) in along.iter().enumerate() {
+        let a = (-g[i] - u[i]) * inv[i];
+        let b = (g[i] - u[i]) * inv[i];
+        let near = enter.max(a.min(b));
+        let far = leave.min(a.max(b));
+        enter = F4::select(along, enter, near);
+        leave = F4::select(along, leave, far);
     }
-    each(|l| match empty[l] {
-        true => (f64::INFINITY, f64::NEG_INFINITY),
-        false => (enter[l], leave[l]),
-    })
+    (
+        F4::select(empty, inf, enter),
+        F4::select(empty, -inf, leave),
+    )
 }
 
-/// Where a ray that does not pass the box `box <= r` by first enters it from outside, or
-/// leaves it from `inside` (none: it never does), from where it spans the grown box.
+/// Where a ray that does not pass the rounded box `box <= r` (`r > 0`) by first enters it
+/// from outside, or leaves it from `inside` (none: it never does), from where it spans the
+/// grown box. (A sharp box's meeting is the span's own, in the lanes: `meet_lanes`.)
 #[inline(always)]
 fn finish(
     (u, w): ([f64; 4], [f64; 4]),
@@ -206,15 +201,6 @@ fn finish(
     (enter, leave): (f64, f64),
 ) -> Option<f64> {
     let span = (enter <= leave).then_some((enter, leave));
-    if r <= 0.0 {
-        return match (span, inside) {
-            (Some((enter, leave)), false) if leave >= 0.0 => Some(enter.max(0.0)),
-            (Some((_, leave)), true) => Some(leave.max(0.0)),
-            // A point inside that the slab rounds out of is on the surface.
-            (None, true) => Some(0.0),
-            _ => None,
-        };
-    }
     let along = |t: f64| -> [f64; 4] { std::array::from_fn(|i| u[i] + t * w[i]) };
     match (span, inside) {
         // Leaving a convex set is entering it along the reversed ray, from beyond its far
