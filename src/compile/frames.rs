@@ -129,11 +129,13 @@ impl Frames {
         }
         // As the frame's rays meet them: off the cells, and not by the plain marcher.
         let eps = self.shot.limits.epsilon;
-        let culls = (fs.field().pieces(false).filter(|_| fs.relax)).map(|pieces| {
-            (fs.lights.lights().iter())
-                .map(|l| ShadowCull::of(pieces, l, eps))
-                .collect()
-        });
+        let culls = (fs.field().pieces(false))
+            .filter(|_| build.marcher != MarcherKind::Plain)
+            .map(|pieces| {
+                (fs.lights.lights().iter())
+                    .map(|l| ShadowCull::of(pieces, l, eps))
+                    .collect()
+            });
         fs.shadow_culls = culls.unwrap_or_default();
         fs
     }

@@ -100,8 +100,8 @@ pub struct FrameScene {
     #[doc(hidden)]
     pub unlit: Vec<Tape>,
     /// For each of `lights`, where every ray meets the scene's exact pieces (and not under
-    /// `--marcher plain`), the pieces its shadow rays from most points need not meet
-    /// (`ShadowCull`); empty elsewhere.
+    /// `--marcher plain`), the pieces its shadow rays need not meet from inside every region
+    /// left out (`ShadowCull::holds`); empty elsewhere.
     #[doc(hidden)]
     pub shadow_culls: Vec<Option<ShadowCull>>,
     /// The scene and interior tapes pruned to regions of space: what rays march through

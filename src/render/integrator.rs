@@ -230,9 +230,9 @@ struct Shadow {
 struct Shadows {
     pending: Vec<Shadow>,
     rays: Vec<Ray>,
-    /// The rays of one tape (`march_shadows`): which field they march (0: the frame's, `k +
-    /// 1`: light `k`'s unlit tape), and their index in `pending`; then the batch of them and
-    /// their hits.
+    /// The rays of one tape (`march_shadows`): what they march (0: the frame's field, `k +
+    /// 1`: light `k`'s unlit tape or its cull's pieces), and their index in `pending`; then
+    /// the batch of them and their hits.
     queue: Vec<(u32, u32)>,
     batch: Vec<Ray>,
     hits: Vec<Hit>,

@@ -20,8 +20,8 @@ pub struct ShadowCull {
 impl ShadowCull {
     /// The cull for shadow rays towards `light` in a frame whose scene is `pieces`, where some
     /// piece (not of the light's own object) can be left out. `eps` is the marching epsilon:
-    /// the ball must lie that far inside a region, so that rounding in the meetings cannot
-    /// bring the region's surface to the ball.
+    /// the region's value must be below `-eps` all over the ball, so that rounding in the
+    /// meetings cannot bring the region's surface to the ball.
     pub fn of(pieces: &Pieces, light: &SphereLight, eps: f64) -> Option<ShadowCull> {
         let (center, radius) = (light.center.to_array(), light.radius);
         let (mut kept, mut regions) = (vec![], vec![]);
@@ -139,7 +139,10 @@ mod tests {
             rays += batch.len();
             marcher.meet(|_| &pieces, &batch, limits, &mut full);
             marcher.meet(|_| &cull.pieces, &batch, limits, &mut cut);
-            let sees = |h: &Hit| matches!(h, Hit::Surface { object, .. } if *object == light.object as usize);
+            let sees = |h: &Hit| match h {
+                Hit::Surface { object, .. } => *object == light.object as usize,
+                _ => false,
+            };
             for (a, b) in full.iter().zip(&cut) {
                 assert_eq!(sees(a), sees(b), "{a:?} against {b:?}");
                 if sees(a) {

@@ -705,35 +705,24 @@ pub fn meet_lanes(pieces: &Pieces, rays: &Rays) -> [Met; 4] {
         return met;
     }
     crate::simd::wide!({
-        // `take` and `cut` lane by lane, as selects in the lanes of vectors.
+        // `Met::take` and `Met::cut` in the lanes of vectors.
         let inf = F4::splat(f64::INFINITY);
         let (mut near, mut first, mut clear) = ((inf, F4::splat(0.0)), (inf, F4::splat(0.0)), inf);
         let mut cells = [0; 4];
         for piece in pieces.iter() {
             let m = piece.form.meet_lanes(rays);
             let object = F4::splat(piece.object);
-            let nearer = |(d, o): (F4, F4), value: F4| {
-                // NaN is below nothing.
-                let below = value.lt(d);
-                (F4::select(below, value, d), F4::select(below, object, o))
-            };
-            near = nearer(near, F4(m.value));
+            near = nearer(near, (F4(m.value), object));
             (clear, cells) = (clear.min(F4(m.clear)), each(|l| cells[l] + m.cells[l]));
-            first = nearer(first, F4(m.first));
+            first = nearer(first, (F4(m.first), object));
         }
-        // Beyond where one piece's crossing gave up, it may be met before the first of the
-        // others.
-        let beyond = first.0.gt(clear);
-        first = (
-            F4::select(beyond, inf, first.0),
-            F4::select(beyond, F4::splat(0.0), first.1),
-        );
+        let first = cut_beyond(first, clear);
         each(|l| Met {
-            near_d: near.0.0[l],
-            first_t: first.0.0[l],
-            clear: clear.0[l],
-            near_object: near.1.0[l],
-            first_object: first.1.0[l],
+            near_d: near.0.at(l),
+            first_t: first.0.at(l),
+            clear: clear.at(l),
+            near_object: near.1.at(l),
+            first_object: first.1.at(l),
             cells: cells[l],
         })
     })
@@ -776,36 +765,37 @@ impl Met {
     #[inline(always)]
     fn take(&mut self, piece: &Piece, m: Meeting) {
         let first = m.first.unwrap_or(f64::NAN);
-        self.take_numbers(piece, (m.value, first), (m.clear, m.cells));
+        (self.near_d, self.near_object) =
+            nearer((self.near_d, self.near_object), (m.value, piece.object));
+        (self.clear, self.cells) = (self.clear.min(m.clear), self.cells + m.cells);
+        (self.first_t, self.first_object) =
+            nearer((self.first_t, self.first_object), (first, piece.object));
     }
 
-    /// `take` with the meeting's numbers, no first meeting as NaN (`Form::meet_lanes`).
-    #[inline(always)]
-    fn take_numbers(
-        &mut self,
-        piece: &Piece,
-        (value, first): (f64, f64),
-        (clear, cells): (f64, usize),
-    ) {
-        if value < self.near_d {
-            (self.near_d, self.near_object) = (value, piece.object);
-        }
-        (self.clear, self.cells) = (self.clear.min(clear), self.cells + cells);
-        // NaN is below nothing.
-        if first < self.first_t {
-            (self.first_t, self.first_object) = (first, piece.object);
-        }
-    }
-
-    /// Beyond where one piece's crossing gave up, it may be met before the first of the
-    /// others.
+    /// `cut_beyond` of the first piece.
     #[inline(always)]
     fn cut(mut self) -> Met {
-        if self.first_t > self.clear {
-            (self.first_t, self.first_object) = (f64::INFINITY, 0.0);
-        }
+        (self.first_t, self.first_object) =
+            cut_beyond((self.first_t, self.first_object), self.clear);
         self
     }
+}
+
+/// A (distance or `t`, object) pair kept against a later piece's (`value`, `object`): the
+/// later where it is below (ties go to the first; NaN is below nothing). One ray's or four's.
+#[inline(always)]
+fn nearer<L: Lane>((d, o): (L, L), (value, object): (L, L)) -> (L, L) {
+    let below = value.lt(d);
+    (L::select(below, value, d), L::select(below, object, o))
+}
+
+/// The first piece's (`t`, object), none (infinity) where it lies beyond `clear`: beyond where
+/// one piece's crossing gave up, it may be met before the first of the others.
+#[inline(always)]
+fn cut_beyond<L: Lane>((t, o): (L, L), clear: L) -> (L, L) {
+    let beyond = t.gt(clear);
+    let none = (L::splat(f64::INFINITY), L::splat(0.0));
+    (L::select(beyond, none.0, t), L::select(beyond, none.1, o))
 }
 
 #[inline(never)]

@@ -8,8 +8,8 @@ impl Form {
     /// A convex set where this form's value is positive, as a form `g` whose value is below
     /// zero just there and is, there, minus this form's: the hollow of a shell of a convex
     /// solid (`|f| - k`, where `f < -k`), the inside of a complement (a box or ball seen from
-    /// inside, `-f`), the far side of a plane. None for the other forms, whose positive side
-    /// is not convex.
+    /// inside, `-f`), the far side of a plane. None for the other forms: their positive side
+    /// is not convex, or (`|f| + c`) no ray meets them anyway.
     pub fn free_region(&self) -> Option<Form> {
         let solid = |f: &Form| match f {
             Form::Plane { .. } => true,
@@ -27,8 +27,9 @@ impl Form {
     }
 
     /// Whether the ball of `radius` around `center` lies where this form, a `free_region`, is
-    /// below `-margin`: a sufficient test, from the rows' lengths, with a rounded box's sharp
-    /// core and a linear image's Frobenius norm. False for forms `free_region` never gives.
+    /// below `-margin` (a margin of its value, a distance where its rows are orthonormal): a
+    /// sufficient test, from the rows' lengths, with a rounded box's sharp core and a linear
+    /// image's Frobenius norm. False for forms `free_region` never gives.
     pub fn holds_ball(&self, center: [f64; 4], radius: f64, margin: f64) -> bool {
         let length = |v: [f64; 4]| dot(v, v).sqrt();
         let below = |v: f64| v < -margin;
@@ -56,8 +57,9 @@ impl Form {
         }
     }
 
-    /// Whether this form, a `free_region`, is below `level` at `p`: `value(p) < level`
-    /// without the square roots a value takes (false for forms `free_region` never gives).
+    /// Whether this form, a `free_region`, is below `level` at `p`: `value(p) < level` but
+    /// within rounding of the level, comparing squares where a value takes square roots
+    /// (false for forms `free_region` never gives).
     #[inline]
     pub fn below(&self, p: [f64; 4], level: f64) -> bool {
         let under = |x: f64, top: f64| top > 0.0 && x < top * top;

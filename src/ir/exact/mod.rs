@@ -299,10 +299,11 @@ impl Form {
         }
     }
 
-    /// What up to four rays meet (`meet` lane by lane, with no first meeting as NaN). Planes,
-    /// balls and boxes and their shells meet them together, without branches but for a
-    /// box's last steps, so that the four run in the lanes of one vector; the other forms
-    /// one by one. One ray alone meets a box the same way, in four lanes of the same ray.
+    /// What up to four rays meet (`meet` lane by lane, with no first meeting as NaN). Balls
+    /// and boxes and their shells meet them together in the lanes of vectors, with branches
+    /// only where all four pass a ball wide or every ray is done with a box before a rounded
+    /// box's last steps; planes lane by lane, the other forms one by one. One ray alone meets
+    /// a box the same way, in four lanes of the same ray, and a ball with the same code.
     #[inline(always)]
     pub fn meet_lanes(&self, rays: &Rays) -> Lanes {
         let (f, shell) = match self {
@@ -325,7 +326,7 @@ impl Form {
             Form::Ball { rows, b, r, sign } => {
                 let (u, w) = rays.local(rows, b);
                 let (u, w) = (each(|i| F4(u[i])), each(|i| F4(w[i])));
-                let (value, first) = ball_met::<F4, true>(u, w, *r, *sign, shell);
+                let (value, first) = ball_met(u, w, *r, *sign, shell);
                 (out.value, out.first) = (value.0, first.0);
             }
             Form::Box {
@@ -362,7 +363,7 @@ impl Form {
             }
             Form::Ball { rows, b, r, sign } => {
                 let (u, w) = local(rows, b, p, d);
-                let (value, first) = ball_met::<f64, true>(u, w, *r, *sign, shell);
+                let (value, first) = ball_met(u, w, *r, *sign, shell);
                 (value, (!first.is_nan()).then_some(first))
             }
             Form::Box {
@@ -473,16 +474,9 @@ fn plane_met(g: [f64; 4], c: f64, p: [f64; 4], d: [f64; 4], shell: Option<f64>) 
 }
 
 /// `plane_met` for the ball `sign (|u| - r)` met by the ray `u + t w` (in its coordinates),
-/// one ray or four in lanes. With `EARLY`, rays that all pass wide of it take a branch past
-/// the roots: one ray alone is met sooner so, and four that all miss.
+/// one ray or four in lanes. Rays that all pass wide of it take a branch past the roots.
 #[inline(always)]
-fn ball_met<L: Lane, const EARLY: bool>(
-    u: [L; 4],
-    w: [L; 4],
-    r: f64,
-    sign: f64,
-    shell: Option<f64>,
-) -> (L, L) {
+fn ball_met<L: Lane>(u: [L; 4], w: [L; 4], r: f64, sign: f64, shell: Option<f64>) -> (L, L) {
     let n = lanes::dot(u, u).sqrt();
     let (s, k) = side(L::splat(sign) * (n - L::splat(r)), shell);
     // s f - k = sign' (|u| - r'), the ball grown or shrunk by `k`.
@@ -491,7 +485,7 @@ fn ball_met<L: Lane, const EARLY: bool>(
     let (a, half_b, uu) = (lanes::dot(w, w), lanes::dot(u, w), lanes::dot(u, u));
     let nan = L::splat(f64::NAN);
     let wide = wide(a, half_b, uu, r);
-    if EARLY && L::all(wide) {
+    if L::all(wide) {
         return (sign * (n - r), nan);
     }
     let (meets, lo, hi) = roots(a, half_b, uu, r);
