@@ -170,22 +170,25 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// Forms of every kind with a free region (`testing::form`).
+    fn forms() -> impl Strategy<Value = Form> {
+        let coordinates = || prop::array::uniform4(-1.0..1.0f64);
+        let turn = prop_oneof![Just(0.0), -1.0..1.0f64];
+        (0u8..9, coordinates(), coordinates(), -1.0..1.0f64, turn)
+            .prop_map(|(kind, a, v, s, turn)| form(kind, a, v, s, turn))
+    }
+
     proptest! {
         /// Where `holds_ball` says a ball lies in a form's free region, the form's value is
         /// above the margin at points all over the ball, and the free region's value there is
         /// minus the form's; and the forms free regions are asked of have one.
         #[test]
         fn a_held_ball_is_free_of_the_form(
-            kind in 0u8..9,
-            a in prop::array::uniform4(-1.0..1.0f64),
-            v in prop::array::uniform4(-1.0..1.0f64),
-            s in -1.0..1.0f64,
-            turn in prop_oneof![Just(0.0), -1.0..1.0f64],
+            f in forms(),
             center in prop::array::uniform4(-3.0..3.0f64),
             radius in 0.0..1.5f64,
             ways in prop::collection::vec(prop::array::uniform4(-1.0..1.0f64), 64),
         ) {
-            let f = form(kind, a, v, s, turn);
             let free = f.free_region().expect("every drawn form has a free region");
             if free.holds_ball(center, radius, 1e-9) {
                 for w in ways {
@@ -203,15 +206,11 @@ mod tests {
         /// but within rounding of the level.
         #[test]
         fn below_is_the_values(
-            kind in 0u8..9,
-            a in prop::array::uniform4(-1.0..1.0f64),
-            v in prop::array::uniform4(-1.0..1.0f64),
-            s in -1.0..1.0f64,
-            turn in prop_oneof![Just(0.0), -1.0..1.0f64],
+            f in forms(),
             p in prop::array::uniform4(-4.0..4.0f64),
             level in -1.0..0.5f64,
         ) {
-            let free = form(kind, a, v, s, turn).free_region().expect("a free region");
+            let free = f.free_region().expect("a free region");
             let value = free.value(p);
             if (value - level).abs() > 1e-12 {
                 prop_assert_eq!(free.below(p, level), value < level, "{:?} {}", free, value);

@@ -337,7 +337,7 @@ impl Marcher {
         // Four at a time, where they meet the same pieces (`meet_lanes`).
         for (group, hits) in rays.chunks(4).zip(hits.chunks_mut(4)) {
             let first = pieces(&group[0]);
-            if group.iter().all(|r| std::ptr::eq(pieces(r), first)) {
+            let work = if group.iter().all(|r| std::ptr::eq(pieces(r), first)) {
                 let four = Rays::of(group.len(), |l| {
                     let r = &group[l];
                     (r.o.to_array(), r.d.to_array(), (r.tmax, CELLS))
@@ -346,14 +346,17 @@ impl Marcher {
                 for ((r, hit), met) in group.iter().zip(hits).zip(met) {
                     *hit = end_met(met, r, limits.epsilon);
                 }
+                group.len() * first.len()
             } else {
+                let mut met = 0;
                 for (r, hit) in group.iter().zip(hits) {
-                    let met = meet(pieces(r), r.o, r.d, (r.tmax, CELLS));
-                    *hit = end_met(met, r, limits.epsilon);
+                    let pieces = pieces(r);
+                    *hit = end_met(meet(pieces, r.o, r.d, (r.tmax, CELLS)), r, limits.epsilon);
+                    met += pieces.len();
                 }
-            }
-            let work: usize = group.iter().map(|r| pieces(r).len() * PIECE_WORK).sum();
-            self.instructions += work as u64;
+                met
+            };
+            self.instructions += (work * PIECE_WORK) as u64;
         }
         self.evaluations += rays.len() as u64;
     }
