@@ -223,33 +223,34 @@ fn finish(
 /// (`u_i + t w_i = +-half_i`, at most eight), the same faces are outside, and the squared
 /// distance to the box is a quadratic in `t`: the sum over them of `(|u_i + t w_i| -
 /// half_i)^2`. The first piece where it comes down to `r^2` holds the root, in closed form.
+/// Each piece ends at the nearest crossing past its start: rays met in the room's rounded
+/// box visited 1.1 pieces on average, and sorting all eight crossings first cost more than
+/// the pieces did.
+#[inline(always)]
 fn within(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), limit: f64) -> Option<f64> {
-    let mut cuts = [limit; 9];
-    let mut n = 0;
-    for i in 0..4 {
-        for face in [-half[i], half[i]] {
-            let t = (face - u[i]) / w[i];
-            if t > 0.0 && t < limit {
-                cuts[n] = t;
-                n += 1;
-            }
-        }
-    }
-    cuts[..n].sort_unstable_by(f64::total_cmp);
+    let (u, w, half, zero) = (F4(u), F4(w), F4(half), F4::splat(0.0));
+    let inv = F4::splat(1.0) / w;
+    // Where each coordinate crosses its two planes. (One that runs along them crosses them
+    // nowhere: NaN or infinite.)
+    let crossings = [(-half - u) * inv, (half - u) * inv];
+    let sum = |x: F4, start: f64| (0..4).fold(start, |s, l| s + x.at(l));
     let mut from = 0.0;
-    for &to in &cuts[..=n] {
+    loop {
+        let (start, end) = (F4::splat(from), F4::splat(limit));
+        let [near, far] = crossings.map(|t| F4::select(t.gt(start) & t.lt(end), t, end));
+        let next = near.min(far);
+        let to = (next.at(0).min(next.at(1))).min(next.at(2).min(next.at(3)));
         // The piece's quadratic in `s = t - from`, from the point where it starts (small
         // coefficients, whatever the ray's origin): `a s^2 + b s + c`.
-        let mid = 0.5 * (from + to);
-        let (mut a, mut b, mut c) = (0.0, 0.0, -r * r);
-        for i in 0..4 {
-            let m = u[i] + mid * w[i];
-            if m.abs() > half[i] {
-                let sign = m.signum();
-                let (e, k) = (sign * (u[i] + from * w[i]) - half[i], sign * w[i]);
-                (a, b, c) = (a + k * k, b + 2.0 * e * k, c + e * e);
-            }
-        }
+        let m = u + F4::splat(0.5 * (from + to)) * w;
+        let (out, sign) = (m.abs().gt(half), F4::splat(1.0).copysign(m));
+        let e = F4::select(out, sign * (u + start * w) - half, zero);
+        let k = F4::select(out, sign * w, zero);
+        let (a, b, c) = (
+            sum(k * k, 0.0),
+            sum(F4::splat(2.0) * e * k, 0.0),
+            sum(e * e, -r * r),
+        );
         if c <= 0.0 {
             return Some(from);
         }
@@ -261,9 +262,12 @@ fn within(u: [f64; 4], w: [f64; 4], (half, r): ([f64; 4], f64), limit: f64) -> O
                 return Some(from + s);
             }
         }
+        // (Each piece ends further on than the last, so this ends; at a NaN limit, at once.)
+        if to >= limit || limit.is_nan() {
+            return None;
+        }
         from = to;
     }
-    None
 }
 
 #[cfg(test)]
