@@ -175,12 +175,17 @@ fn slabs((u, w): (&[F4; 4], &[F4; 4]), g: &[F4; 4]) -> (F4, F4) {
     let along: [M4; 4] = each(|i| !inv[i].is_finite());
     let gap: [M4; 4] = each(|i| g[i].lt(F4::splat(0.0)) | (along[i] & u[i].abs().gt(g[i])));
     let empty = gap[0] | gap[1] | gap[2] | gap[3];
+    // Compares and selects, not `f64::min` and `max`, whose care for NaN took three
+    // instructions a lane where one does: the roots are NaN only where the line runs along
+    // the planes, and those lanes keep what they had.
+    let min = |x: F4, y: F4| F4(each(|l| if y.0[l] < x.0[l] { y.0[l] } else { x.0[l] }));
+    let max = |x: F4, y: F4| F4(each(|l| if y.0[l] > x.0[l] { y.0[l] } else { x.0[l] }));
     let (mut enter, mut leave) = (-inf, inf);
     for (i, &along) in along.iter().enumerate() {
         let a = (-g[i] - u[i]) * inv[i];
         let b = (g[i] - u[i]) * inv[i];
-        let near = enter.max(a.min(b));
-        let far = leave.min(a.max(b));
+        let near = max(enter, min(a, b));
+        let far = min(leave, max(a, b));
         enter = F4::select(along, enter, near);
         leave = F4::select(along, leave, far);
     }
