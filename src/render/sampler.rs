@@ -28,6 +28,8 @@ const SEGMENT_DIMENSIONS: u32 = 12;
 /// a 1,024 to 4,096 spp reference; see `docs/performance.md`).
 const CAMERA_DIMENSIONS: u32 = 4;
 const _: () = assert!(CAMERA_DIMENSIONS.is_multiple_of(4) && SEGMENT_DIMENSIONS.is_multiple_of(4));
+// Sets are computed in pairs (`Sobol::pair`).
+const _: () = assert!(sobol_burley::NUM_DIMENSION_SETS_4D.is_multiple_of(2));
 
 /// Which sequence drives the samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -62,11 +64,11 @@ pub struct Sampler {
     sobol: Option<Sobol>,
     /// The next Sobol dimension.
     dim: u32,
-    /// The last set of four Sobol dimensions computed (`u32::MAX`: none yet) and its values:
-    /// a set computes four at once, the same numbers `sobol_burley::sample` does one at a
-    /// time, for about the price of one.
-    set: u32,
-    four: [f32; 4],
+    /// The last pair of sets of four Sobol dimensions computed (`u32::MAX`: none yet) and
+    /// their values: eight numbers at once, the same `sobol_burley::sample` gives one at a
+    /// time.
+    pair: u32,
+    eight: [f32; 8],
 }
 
 /// One pixel's Owen-scrambled Sobol sequence (`seed`) at one sample index:
@@ -86,17 +88,32 @@ impl Sobol {
         Sobol { seed, shuffled }
     }
 
-    /// Dimensions `4 set .. 4 set + 4` (`set` below `NUM_DIMENSION_SETS_4D`), as
-    /// `sobol_burley::sample_4d(index, set, seed)` computes them: its hash and Owen scramble
-    /// written out on arrays of four, compiled for AVX2 where the CPU has it. The crate's are
-    /// built for SSE2, which has no multiply of four 32-bit lanes: each of the seven took
-    /// five instructions, and `Sampler::get` was a tenth of the room's render.
+    /// Dimensions `8 pair .. 8 pair + 8`, the sets of four `2 pair` and `2 pair + 1` (below
+    /// `NUM_DIMENSION_SETS_4D`), as `sobol_burley::sample_4d(index, set, seed)` computes
+    /// each: its hash and Owen scramble written out on arrays of eight, compiled for AVX2
+    /// where the CPU has it. The crate's are built for SSE2, which has no multiply of four
+    /// 32-bit lanes: each of the seven took five instructions, and `Sampler::get` was a tenth
+    /// of the room's render. A path segment's twelve dimensions span three sets, most often
+    /// all drawn: in the room a pair at a time computed 357,000 times where a set at a time
+    /// did 607,000, at 122 instructions a pair against 100 a set.
     #[inline]
-    fn four(&self, set: u32) -> [f32; 4] {
-        let sobol = point(self.shuffled, set);
-        let base = self.seed.wrapping_mul(0x9c8f2d3b) ^ set;
+    fn pair(&self, pair: u32) -> [f32; 8] {
+        let sobol = points(self.shuffled, pair);
+        let seed = self.seed.wrapping_mul(0x9c8f2d3b);
+        const KEYS: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
         crate::simd::wide!({
-            let scramble = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8].map(|k| base ^ k);
+            // The sets `2 pair` and `2 pair + 1`: the second's XOR with 1 of the first's.
+            let base = seed ^ (2 * pair);
+            let scramble: [u32; 8] = [
+                base ^ KEYS[0],
+                base ^ KEYS[1],
+                base ^ KEYS[2],
+                base ^ KEYS[3],
+                base ^ 1 ^ KEYS[0],
+                base ^ 1 ^ KEYS[1],
+                base ^ 1 ^ KEYS[2],
+                base ^ 1 ^ KEYS[3],
+            ];
             // `hash_int4`.
             let h = scramble
                 .map(|n| n ^ 0xe6fe3beb)
@@ -105,7 +122,7 @@ impl Sobol {
                 .map(|n| n ^ (n >> 16));
             // `owen_scramble_int4_rev`, then `reverse_bits` and `to_f32_norm`.
             let n = sobol.map(|n| n ^ n.wrapping_mul(0x3d20adea));
-            let n: [u32; 4] =
+            let n: [u32; 8] =
                 std::array::from_fn(|i| n[i].wrapping_add(h[i]).wrapping_mul((h[i] >> 16) | 1));
             n.map(|n| n ^ n.wrapping_mul(0x05526c56))
                 .map(|n| n ^ n.wrapping_mul(0x53a22864))
@@ -114,18 +131,19 @@ impl Sobol {
     }
 }
 
-/// For each set of four dimensions, and each of the four nibbles of the (bit-reversed) index's
-/// top 16 bits that the sequence reads, the XOR of the direction numbers each of the nibble's
-/// 16 values selects: a set is four lookups, where `sobol_int4_rev` loops over the index's bits
-/// (a loop of random length, whose exit the branch predictor missed every time). The Sobol
-/// point is linear in the index's bits, so each entry is `sobol_int4_rev` of the nibble alone.
-type Nibbles = [[[u32; 4]; 16]; 4];
+/// For each pair of sets of four dimensions, and each of the four nibbles of the
+/// (bit-reversed) index's top 16 bits that the sequence reads, the XOR of the direction
+/// numbers each of the nibble's 16 values selects, both sets' side by side: a pair is four
+/// lookups, where `sobol_int4_rev` loops over the index's bits (a loop of random length, whose
+/// exit the branch predictor missed every time). The Sobol point is linear in the index's
+/// bits, so each entry is `sobol_int4_rev` of the nibble alone.
+type Nibbles = [[[u32; 8]; 16]; 4];
 
-/// `sobol_int4_rev(shuffled, set)` from the tables.
+/// `sobol_int4_rev(shuffled, set)` of the pair's two sets from the tables, one after the other.
 #[inline]
-fn point(shuffled: u32, set: u32) -> [u32; 4] {
-    let mut sobol = [0u32; 4];
-    for (q, table) in nibbles()[set as usize].iter().enumerate() {
+fn points(shuffled: u32, pair: u32) -> [u32; 8] {
+    let mut sobol = [0u32; 8];
+    for (q, table) in nibbles()[pair as usize].iter().enumerate() {
         let m = &table[(shuffled >> (28 - 4 * q)) as usize & 15];
         sobol = std::array::from_fn(|lane| sobol[lane] ^ m[lane]);
     }
@@ -135,12 +153,16 @@ fn point(shuffled: u32, set: u32) -> [u32; 4] {
 fn nibbles() -> &'static [Nibbles] {
     static TABLE: std::sync::OnceLock<Vec<Nibbles>> = std::sync::OnceLock::new();
     TABLE.get_or_init(|| {
-        (0..sobol_burley::NUM_DIMENSION_SETS_4D)
-            .map(|set| {
+        (0..sobol_burley::NUM_DIMENSION_SETS_4D / 2)
+            .map(|pair| {
                 std::array::from_fn(|q| {
                     std::array::from_fn(|m| {
                         let bits = (m as u32) << (28 - 4 * q);
-                        sobol_burley::parts::sobol_int4_rev(bits, set).into()
+                        let set = |k| -> [u32; 4] {
+                            sobol_burley::parts::sobol_int4_rev(bits, 2 * pair + k).into()
+                        };
+                        let (a, b) = (set(0), set(1));
+                        std::array::from_fn(|i| if i < 4 { a[i] } else { b[i - 4] })
                     })
                 })
             })
@@ -167,8 +189,8 @@ impl Sampler {
             rng: None,
             sobol,
             dim: 0,
-            set: u32::MAX,
-            four: [0.0; 4],
+            pair: u32::MAX,
+            eight: [0.0; 8],
         }
     }
 
@@ -176,7 +198,7 @@ impl Sampler {
     #[inline]
     pub fn get(&mut self) -> f64 {
         match self.sobol_set(1) {
-            Some((four, lane)) => four[lane] as f64,
+            Some((eight, i)) => eight[i] as f64,
             None => self.pcg(),
         }
     }
@@ -191,21 +213,24 @@ impl Sampler {
         }
     }
 
-    /// Where the next `take` Sobol dimensions lie in one set: the set's four numbers and the
-    /// lane of the first, the dimensions taken; none where they do not (or PCG draws them).
+    /// Where the next `take` Sobol dimensions lie in one set: its pair's eight numbers and
+    /// the index of the first, the dimensions taken; none where they do not (or PCG draws
+    /// them).
     #[inline(always)]
-    fn sobol_set(&mut self, take: u32) -> Option<([f32; 4], usize)> {
+    fn sobol_set(&mut self, take: u32) -> Option<([f32; 8], usize)> {
         let sobol = self.sobol.as_ref()?;
-        let (set, lane) = (self.dim / 4, self.dim % 4);
+        let lane = self.dim % 4;
         // (`dim` may be as high as `u32::MAX`: `start_segment` saturates.)
         if lane + take > 4 || self.dim > sobol_burley::NUM_DIMENSIONS - take {
             return None;
         }
-        if set != self.set {
-            (self.set, self.four) = (set, sobol.four(set));
+        let pair = self.dim / 8;
+        if pair != self.pair {
+            (self.pair, self.eight) = (pair, sobol.pair(pair));
         }
+        let first = self.dim % 8;
         self.dim += take;
-        Some((self.four, lane as usize))
+        Some((self.eight, first as usize))
     }
 
     /// The PCG stream's next number, past the Sobol sequence or in its place.
@@ -301,23 +326,28 @@ mod tests {
             for top in 0u32..1 << 16 {
                 let shuffled = top << 16 | 0x1234;
                 let want: [u32; 4] = sobol_int4_rev(shuffled, set).into();
-                assert_eq!(point(shuffled, set), want, "set {set}, {shuffled:#x}");
+                let both = points(shuffled, set / 2);
+                let got: [u32; 4] = std::array::from_fn(|i| both[4 * (set as usize % 2) + i]);
+                assert_eq!(got, want, "set {set}, {shuffled:#x}");
             }
         }
     }
 
-    /// The sequence taken apart gives `sample_4d`'s numbers in every set of four dimensions.
+    /// The sequence taken apart gives `sample_4d`'s numbers in every set of four dimensions,
+    /// two sets at a time.
     #[test]
     fn sets_are_sample_4d() {
         let indices = (0..70).chain([255, 4097, 30_000, 65_535]);
         for (index, seed) in indices.zip([0, 7, 0xdead_beef, u32::MAX].into_iter().cycle()) {
             let sobol = Sobol::new(index, seed);
-            for set in 0..sobol_burley::NUM_DIMENSION_SETS_4D {
-                let expected = sobol_burley::sample_4d(index, set, seed);
+            for pair in 0..sobol_burley::NUM_DIMENSION_SETS_4D / 2 {
+                let [a, b] =
+                    [2 * pair, 2 * pair + 1].map(|s| sobol_burley::sample_4d(index, s, seed));
+                let expected: [f32; 8] = std::array::from_fn(|i| [a, b][i / 4][i % 4]);
                 assert_eq!(
-                    sobol.four(set),
+                    sobol.pair(pair),
                     expected,
-                    "index {index} seed {seed} set {set}"
+                    "index {index} seed {seed} pair {pair}"
                 );
             }
         }
