@@ -176,8 +176,10 @@ fn slabs((u, w): (&[F4; 4], &[F4; 4]), g: &[F4; 4]) -> (F4, F4) {
     let gap: [M4; 4] = each(|i| g[i].lt(F4::splat(0.0)) | (along[i] & u[i].abs().gt(g[i])));
     let empty = gap[0] | gap[1] | gap[2] | gap[3];
     // Compares and selects, not `f64::min` and `max`, whose care for NaN took three
-    // instructions a lane where one does: the roots are NaN only where the line runs along
-    // the planes, and those lanes keep what they had.
+    // instructions a lane where one does. A ray's roots are NaN only where it runs along the
+    // planes, and those lanes keep what they had; elsewhere only non-finite points or
+    // half-extents, which no ray's meeting has, give NaN, and then another span than
+    // `f64::min` and `max` would.
     let min = |x: F4, y: F4| F4(each(|l| if y.0[l] < x.0[l] { y.0[l] } else { x.0[l] }));
     let max = |x: F4, y: F4| F4(each(|l| if y.0[l] > x.0[l] { y.0[l] } else { x.0[l] }));
     let (mut enter, mut leave) = (-inf, inf);
