@@ -102,18 +102,9 @@ impl Sobol {
         let seed = self.seed.wrapping_mul(0x9c8f2d3b);
         const KEYS: [u32; 4] = [0x912f69ba, 0x174f18ab, 0x691e72ca, 0xb40cc1b8];
         crate::simd::wide!({
-            // The sets `2 pair` and `2 pair + 1`: the second's XOR with 1 of the first's.
-            let base = seed ^ (2 * pair);
-            let scramble: [u32; 8] = [
-                base ^ KEYS[0],
-                base ^ KEYS[1],
-                base ^ KEYS[2],
-                base ^ KEYS[3],
-                base ^ 1 ^ KEYS[0],
-                base ^ 1 ^ KEYS[1],
-                base ^ 1 ^ KEYS[2],
-                base ^ 1 ^ KEYS[3],
-            ];
+            // Lanes 0 to 3 are set `2 pair`'s, 4 to 7 set `2 pair + 1`'s.
+            let scramble: [u32; 8] =
+                std::array::from_fn(|i| seed ^ (2 * pair + i as u32 / 4) ^ KEYS[i % 4]);
             // `hash_int4`.
             let h = scramble
                 .map(|n| n ^ 0xe6fe3beb)

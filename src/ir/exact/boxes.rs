@@ -65,8 +65,7 @@ pub fn sign<L: Lane>(u: [L; 4], half: [f64; 4], r: f64) -> L {
 #[inline(always)]
 fn values(u: &[F4; 4], half: [f64; 4], r: f64) -> (F4, F4) {
     let zero = F4::splat(0.0);
-    let max = |x: F4, y: F4| F4::select(y.gt(x), y, x);
-    let min = |x: F4, y: F4| F4::select(y.lt(x), y, x);
+    let (max, min) = (lanes::greater, lanes::lesser);
     let q: [F4; 4] = each(|i| u[i].abs() - F4::splat(half[i]));
     let o = q.map(|q| max(q, zero));
     let length = lanes::dot(o, o);
@@ -175,13 +174,12 @@ fn slabs((u, w): (&[F4; 4], &[F4; 4]), g: &[F4; 4]) -> (F4, F4) {
     let along: [M4; 4] = each(|i| !inv[i].is_finite());
     let gap: [M4; 4] = each(|i| g[i].lt(F4::splat(0.0)) | (along[i] & u[i].abs().gt(g[i])));
     let empty = gap[0] | gap[1] | gap[2] | gap[3];
-    // Compares and selects, not `f64::min` and `max`, whose care for NaN took three
+    // `lesser` and `greater`, not `f64::min` and `max`, whose care for NaN takes three
     // instructions a lane where one does. A ray's roots are NaN only where it runs along the
     // planes, and those lanes keep what they had; elsewhere only non-finite points or
     // half-extents, which no ray's meeting has, give NaN, and then another span than
     // `f64::min` and `max` would.
-    let min = |x: F4, y: F4| F4(each(|l| if y.0[l] < x.0[l] { y.0[l] } else { x.0[l] }));
-    let max = |x: F4, y: F4| F4(each(|l| if y.0[l] > x.0[l] { y.0[l] } else { x.0[l] }));
+    let (min, max) = (lanes::lesser, lanes::greater);
     let (mut enter, mut leave) = (-inf, inf);
     for (i, &along) in along.iter().enumerate() {
         let a = (-g[i] - u[i]) * inv[i];
