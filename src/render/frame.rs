@@ -100,10 +100,10 @@ pub struct FrameScene {
     #[doc(hidden)]
     pub unlit: Vec<Tape>,
     /// For each of `lights`, where every ray meets the scene's exact pieces (and not under
-    /// `--marcher plain`), the pieces its shadow rays need not meet from inside every region
-    /// left out (`ShadowCull::holds`); empty elsewhere.
+    /// `--marcher plain`), the pieces its shadow rays meet up to its ball from inside every
+    /// region left out (`ShadowCull::holds`); empty elsewhere.
     #[doc(hidden)]
-    pub shadow_culls: Vec<Option<ShadowCull>>,
+    pub shadow_culls: Vec<ShadowCull>,
     /// The scene and interior tapes pruned to regions of space: what rays march through
     /// (none for the plain marcher, which marches the whole tapes).
     #[doc(hidden)]

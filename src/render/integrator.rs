@@ -709,7 +709,7 @@ impl<'a> Nee<'a> {
             return;
         }
         // The ray from `origin`, a little off `x`, may just miss the ball: it sees nothing.
-        let Some(enter) = enter_ball(origin, ls.wo, light.center, light.radius) else {
+        let Some(enter) = light.enter(origin, ls.wo) else {
             return;
         };
         shadows.pending.push(Shadow {
@@ -741,26 +741,15 @@ impl<'a> Nee<'a> {
     }
 }
 
-/// Where the ray from `o` along the unit direction `d` enters the ball (`center`, `radius`):
-/// 0 from inside it, `None` if it misses.
-fn enter_ball(o: DVec4, d: DVec4, center: DVec4, radius: f64) -> Option<f64> {
-    let to = center - o;
-    let (b, c) = (to.dot(d), to.length_squared() - radius * radius);
-    if c <= 0.0 {
-        return Some(0.0);
-    }
-    let disc = b * b - c;
-    (b > 0.0 && disc >= 0.0).then(|| c / (b + disc.sqrt()))
-}
-
 /// March the wavefront's shadow rays and add what their lights give the paths. Where the
 /// frame marches its whole tape, a ray from outside objects marches its light's unlit tape
 /// (`FrameScene::unlit`) only as far as the light's ball, and sees the light if nothing is
 /// in the way: the steps that close in on the light's own surface, shorter and shorter where
 /// the ray meets it at a slant, were half of a lit room's steps. Where every ray meets the
 /// scene's exact pieces, a ray from where its light's cull holds (`ShadowCull`) meets fewer of
-/// them. Elsewhere it marches the frame's field as far as past the light, and sees it if the
-/// light is the first surface it meets.
+/// them, and not the light's own ball: it too goes as far as the ball, whose entry is known in
+/// closed form. Elsewhere it marches the frame's field as far as past the light, and sees it
+/// if the light is the first surface it meets.
 fn march_shadows(
     fs: &FrameScene,
     s: &Settings,
@@ -777,12 +766,14 @@ fn march_shadows(
         hits,
     } = shadows;
     let eps = s.shot.limits.epsilon;
-    let cull = |light: usize| fs.shadow_culls.get(light).and_then(Option::as_ref);
+    let cull = |light: usize| fs.shadow_culls.get(light);
     queue.clear();
     queue.extend(
         (pending.iter().zip(rays.iter()).enumerate()).map(|(i, (sh, r))| {
             let light = sh.light as usize;
+            // From inside the ball (`enter` 0) the whole meeting decides what the ray sees.
             let own = !r.interior
+                && sh.enter > 0.0
                 && (light < fs.unlit.len() || cull(light).is_some_and(|c| c.holds(r.o, eps)));
             (if own { sh.light + 1 } else { 0 }, i as u32)
         }),
@@ -799,7 +790,7 @@ fn march_shadows(
         batch.clear();
         batch.extend(group.iter().map(|&(_, i)| {
             let (sh, r) = (&pending[i as usize], rays[i as usize]);
-            let tmax = if unlit.is_some() { sh.enter } else { r.tmax };
+            let tmax = if light.is_some() { sh.enter } else { r.tmax };
             Ray { tmax, ..r }
         }));
         let before = (marcher.evaluations, marcher.instructions);
@@ -810,8 +801,8 @@ fn march_shadows(
         stats.count_work(marcher, before);
         for (&(_, i), &hit) in group.iter().zip(hits.iter()) {
             let sh = &pending[i as usize];
-            let light = fs.lights.lights()[sh.light as usize].object as usize;
-            let Some(t) = sees(hit, light, unlit.map(|_| sh.enter)) else {
+            let object = fs.lights.lights()[sh.light as usize].object as usize;
+            let Some(t) = sees(hit, object, light.map(|_| sh.enter)) else {
                 continue;
             };
             let transmittance = if sh.sigma_t > 0.0 {
@@ -825,8 +816,9 @@ fn march_shadows(
 }
 
 /// Where a shadow ray that ended in `hit` sees the light, object `light`: where it meets it
-/// first, or, marched on the light's unlit tape up to where it enters its ball (`enter`),
-/// there if nothing was in the way (an `f64` settling near the ball may still name the light).
+/// first, or, marched on the light's unlit tape or met on its cull's pieces up to where it
+/// enters its ball (`enter`), there if nothing was in the way (an `f64` settling near the ball
+/// may still name the light).
 fn sees(hit: Hit, light: usize, enter: Option<f64>) -> Option<f64> {
     match (hit, enter) {
         (Hit::Surface { t, object }, _) if object == light => Some(t),

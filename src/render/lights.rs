@@ -45,6 +45,20 @@ pub struct SphereLight {
     pub object: u32,
 }
 
+impl SphereLight {
+    /// Where the ray from `o` along the unit direction `d` enters the ball: 0 from inside it,
+    /// `None` if it misses.
+    pub fn enter(&self, o: DVec4, d: DVec4) -> Option<f64> {
+        let to = self.center - o;
+        let (b, c) = (to.dot(d), to.length_squared() - self.radius * self.radius);
+        if c <= 0.0 {
+            return Some(0.0);
+        }
+        let disc = b * b - c;
+        (b > 0.0 && disc >= 0.0).then(|| c / (b + disc.sqrt()))
+    }
+}
+
 /// One light sample drawn from a point.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightSample {
