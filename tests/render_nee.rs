@@ -592,6 +592,39 @@ fn shadow_rays_marching_without_their_light_still_meet_what_is_in_the_way() {
 }
 
 #[test]
+fn shadow_rays_of_exact_frames_stop_where_they_enter_their_light() {
+    // Where a frame is a few exact pieces, a shadow ray meets the pieces but its light's own
+    // ball (`ShadowCull`) only as far as it enters the ball, and sees the light if it meets
+    // nothing before. A lamp sunk halfway into the floor lights a ceiling: the ceiling's rays
+    // that went on past their entry would meet the floor inside the ball and leave it dark.
+    let src = "render { size = 4 x 3  spp = 4000  bounces = 2  seed = 1 }
+               camera { from = [0, 0.5, -2, 0] look = rotate(yz, -40deg) fov = 60deg }
+               object floor { shape = halfspace(offset: 0) material = diffuse(albedo: rgb(0.5)) }
+               object ceiling { shape = halfspace(normal: [0, -1, 0, 0], offset: -1.5)
+                                material = diffuse(albedo: rgb(0.8)) }
+               object lamp { shape = hypersphere(0.6) material = light(intensity: 5) }";
+    let frames = Frames::new(&scene_of(src));
+    let fs = frames.at(0.0, Build::marcher(MarcherKind::Auto));
+    assert!(
+        fs.escape.pieces(false).is_some(),
+        "not a frame of exact pieces"
+    );
+    assert_eq!(fs.shadow_culls.len(), 1);
+    // The ceiling's free region holds the lamp, the floor's does not: the floor stays.
+    assert_eq!(fs.shadow_culls[0].pieces.len(), 1);
+    let on = render_with(src, with_nee(true));
+    let off = render_with(
+        &src.replace("seed = 1", "seed = 2"),
+        Options {
+            marcher: MarcherKind::Plain,
+            ..with_nee(false)
+        },
+    );
+    assert!(on.stats.shadow_rays > 10_000, "{}", on.stats.shadow_rays);
+    assert_means_agree("a sunk lamp, light sampling on / off", &on, &off);
+}
+
+#[test]
 fn lights_lie_outside_or_inside_only_objects_they_clear() {
     // Light sampling marches no shadow ray from inside an object whose surface the light lies
     // wholly outside, nor from outside one it lies wholly inside (`Lights::side`): the ray

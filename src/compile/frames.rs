@@ -119,7 +119,7 @@ impl Frames {
             probe: None,
         };
         // Where every ray meets the scene's few exact pieces once, cells would only meet the
-        // same pieces (and shadow rays see the light if it is the first they meet).
+        // same pieces (and shadow rays meet them up to their light's ball, `ShadowCull`).
         let exact = fs.escape.meets_every_ray();
         if build.marcher == MarcherKind::Auto && !exact {
             fs.choose_marcher(&self.shot, || plan.build(&program.ir));

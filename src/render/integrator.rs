@@ -7,9 +7,9 @@
 //! a scattering event in a medium) also samples a direction towards one spherical light
 //! (`lights.rs`) and sends a shadow ray; the shadow rays of a whole wavefront march together
 //! after shading. A shadow ray sees the light when the first surface it meets is that light
-//! (on a whole-tape frame: when it gets to the light's ball on the scene without the light,
-//! `march_shadows`); it is attenuated by `exp(-sigma_t t)` in the path's current (homogeneous)
-//! medium. Any other first surface, a glass or fog boundary included, occludes it: light
+//! (on a whole-tape frame, or a frame of exact pieces, from outside the light's ball: when it
+//! gets to the ball on the scene without the light, `march_shadows`); it is attenuated by
+//! `exp(-sigma_t t)` in the path's current (homogeneous) medium. Any other first surface, a glass or fog boundary included, occludes it: light
 //! through those is left to BSDF sampling, which reaches it with weight 1 (see below).
 //!
 //! The two strategies are combined by multiple importance sampling with the **power heuristic**
@@ -748,8 +748,8 @@ impl<'a> Nee<'a> {
 /// the ray meets it at a slant, were half of a lit room's steps. Where every ray meets the
 /// scene's exact pieces, a ray from where its light's cull holds (`ShadowCull`) meets fewer of
 /// them, and not the light's own ball: it too goes as far as the ball, whose entry is known in
-/// closed form. Elsewhere it marches the frame's field as far as past the light, and sees it
-/// if the light is the first surface it meets.
+/// closed form. Elsewhere, and from inside the ball on any frame, it marches the frame's field
+/// as far as past the light, and sees it if the light is the first surface it meets.
 fn march_shadows(
     fs: &FrameScene,
     s: &Settings,

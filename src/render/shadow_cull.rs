@@ -74,9 +74,12 @@ mod tests {
 
     /// Shadow rays that meet only a cull's pieces, as far as they enter the light's ball, see
     /// the light where those meeting every piece do, at the same distance to a relative 1e-9
-    /// (6.5e-11 at worst: where a ray grazes the ball its entry is ill-conditioned). Scenes of random forms with free regions (hollow
-    /// boxes, balls and polytopes, their complements, planes), solid balls in the way and a
-    /// light; rays from random points towards random points on the light.
+    /// (6.5e-11 at worst: where a ray grazes the ball, its entry is ill-conditioned, and the
+    /// two closed forms may differ more; the distance only weighs the transmittance). Scenes
+    /// of random forms with free regions (hollow boxes, balls and polytopes, their
+    /// complements, planes), solid balls in the way and a light; rays from random points
+    /// outside the ball towards random points on it (those from inside take the whole
+    /// meeting in `march_shadows`).
     #[test]
     fn culled_shadow_rays_see_the_light_as_all_pieces_do() {
         let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(5);
