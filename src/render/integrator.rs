@@ -9,8 +9,9 @@
 //! after shading. A shadow ray sees the light when the first surface it meets is that light
 //! (on a whole-tape frame, or a frame of exact pieces, from outside the light's ball: when it
 //! gets to the ball on the scene without the light, `march_shadows`); it is attenuated by
-//! `exp(-sigma_t t)` in the path's current (homogeneous) medium. Any other first surface, a glass or fog boundary included, occludes it: light
-//! through those is left to BSDF sampling, which reaches it with weight 1 (see below).
+//! `exp(-sigma_t t)` in the path's current (homogeneous) medium. Any other first surface, a
+//! glass or fog boundary included, occludes it: light through those is left to BSDF
+//! sampling, which reaches it with weight 1 (see below).
 //!
 //! The two strategies are combined by multiple importance sampling with the **power heuristic**
 //! (exponent 2) on solid-angle pdfs: the light sample is weighted by

@@ -139,15 +139,10 @@ mod tests {
                 .collect();
             // As the integrator sends them: only rays from outside the ball that enter it;
             // culled, as far as that.
-            let batch: Vec<Ray> = (batch.into_iter())
-                .filter(|r| light.enter(r.o, r.d).is_some_and(|t| t > 0.0))
-                .collect();
-            let short: Vec<Ray> = (batch.iter())
-                .map(|r| Ray {
-                    tmax: light.enter(r.o, r.d).expect("kept where it enters"),
-                    ..*r
-                })
-                .collect();
+            let (batch, short): (Vec<Ray>, Vec<Ray>) = (batch.into_iter())
+                .filter_map(|r| light.enter(r.o, r.d).filter(|&t| t > 0.0).map(|t| (r, t)))
+                .map(|(r, tmax)| (r, Ray { tmax, ..r }))
+                .unzip();
             rays += batch.len();
             marcher.meet(|_| &pieces, &batch, limits, &mut full);
             marcher.meet(|_| &cull.pieces, &short, limits, &mut cut);
