@@ -2340,3 +2340,187 @@ fn cell_bounds_hold_where_fields_leave_their_domain() {
         "{undefined} {checked}"
     );
 }
+
+/// A random custom field of depth up to `depth` that goes NaN in places (square roots,
+/// logarithms and arcsines past their domains, `0 / 0`), read through the kernel's operations
+/// that drop a NaN (`min`, `max`, comparisons, `sign`, selections): its expression in `p`.
+fn nan_prone_field(rng: &mut Pcg64Mcg, depth: u32) -> String {
+    if depth == 0 {
+        return match rng.random_range(0..6) {
+            0 => "p.x".into(),
+            1 => "p.y".into(),
+            2 => "p.z".into(),
+            3 => "p.w".into(),
+            4 => "0".into(),
+            _ => format!("{:.2}", rng.random_range(-2.0..2.0)),
+        };
+    }
+    let op = rng.random_range(0..17);
+    let mut e = || nan_prone_field(rng, depth - 1);
+    let (a, b) = (e(), e());
+    match op {
+        0 => format!("sqrt({a})"),
+        1 => format!("log({a})"),
+        2 => format!("(asin({a}) / 1rad)"),
+        3 => format!("abs({a})"),
+        4 => format!("sign({a})"),
+        5 => format!("(-{a})"),
+        6 => format!("floor({a})"),
+        7 => format!("({a} + {b})"),
+        8 => format!("({a} - {b})"),
+        9 => format!("({a} * {b})"),
+        10 => format!("({a} / {b})"),
+        11 | 12 => format!("min({a}, {b})"),
+        13 | 14 => format!("max({a}, {b})"),
+        15 => format!("(if {a} < {b} {{ {} }} else {{ {} }})", e(), e()),
+        _ => format!(
+            "(if {a} != {b} || !({} >= 0) {{ {} }} else {{ {} }})",
+            e(),
+            e(),
+            e()
+        ),
+    }
+}
+
+/// Whether `reference`'s last run of `g` (`live` marks the nodes evaluated) took a value that
+/// another form of the same function need not: a `min` or `max` of a NaN and a number (either,
+/// by their order, which the graph does not keep: `I::dropping`), or an infinity (`x / 0`,
+/// where a pruned graph's `-x` for `|x|` or its local coordinates may give the other zero).
+fn either_form(g: &ir::Graph, live: &[bool], reference: &Reference) -> bool {
+    use ir::{Bin, Node};
+    let one_nan = |a: ir::Id, b: ir::Id| reference.value(a).is_nan() != reference.value(b).is_nan();
+    (0..g.len())
+        .filter(|&i| live[i])
+        .any(|i| match g.get(ir::Id(i as u32)) {
+            Node::Bin(Bin::Min | Bin::Max, a, b) => one_nan(a, b),
+            Node::Const(_) | Node::MinId(..) | Node::Proj(..) => false,
+            _ => reference.value(ir::Id(i as u32)).is_infinite(),
+        })
+}
+
+/// Bounds know where a node may be NaN (`I::nan`), and hold every value it takes where it is
+/// not: on random fields that go NaN past a function's domain and then meet `min`, `max`,
+/// comparisons and selections, which drop a NaN (the kernel's `max(a, b)` is `a` where `b`
+/// is NaN). Over random boxes and stretches of rays, at every node; and a graph pruned to a
+/// box (`ir::prune`) is the same function there, NaN for NaN. Before bounds kept the flag,
+/// `max(-1 - z^2, max(sqrt(x), y - 0.5))` read as at least `y - 0.5` past `x = 0`, where it is
+/// `-1 - z^2`.
+#[test]
+fn bounds_follow_nan_through_the_operations_that_drop_it() {
+    use hyperslice::ir::prune::prune;
+    let mut rng = Pcg64Mcg::seed_from_u64(17);
+    let (mut fields, mut nan_values, mut dropped) = (0, 0, 0);
+    let (mut pruned_points, mut nan_points) = (0, 0);
+    let mut along = Along::default();
+    for _ in 0..400 {
+        let depth = rng.random_range(2..=4);
+        let expr = nan_prone_field(&mut rng, depth);
+        // A third blended with another field (`smooth`), where a NaN is never dropped.
+        let expr = match rng.random_range(0..6) {
+            0 => format!(
+                "union(sdf |p| {expr}, sdf |p| {}, smooth: 0.3)",
+                nan_prone_field(&mut rng, 2)
+            ),
+            1 => format!(
+                "intersect(sdf |p| {expr}, sdf |p| {}, smooth: 0.3)",
+                nan_prone_field(&mut rng, 2)
+            ),
+            _ => format!("sdf |p| {expr}"),
+        };
+        let src = format!("object o {{ shape = {expr}\n material = diffuse(0.5) }}");
+        // (A constant past a domain, `asin(-1.92)`, is an error of the scene's.)
+        let c = Compilation::from_source("t.4ds", &src);
+        let errors = c.has_errors();
+        let Some(scene) = c.scene.filter(|_| !errors) else {
+            continue;
+        };
+        fields += 1;
+        let raw = ir::lower(&scene);
+        let (g, root) = (&raw.graph, raw.objects[0].distance);
+        let live = g.live(&[root]);
+        let scalar: Vec<ir::Id> = (0..g.len() as u32)
+            .map(ir::Id)
+            .filter(|&id| live[id.0 as usize] && g.get(id).arity() == 1)
+            .collect();
+        let mut reference = Reference::new(g, &[root]);
+        let mut check = |bounds: &Intervals, reference: &Reference, at: String| {
+            for &id in &scalar {
+                let (b, x) = (bounds.get(id), reference.value(id));
+                if x.is_nan() {
+                    nan_values += 1;
+                    assert!(b.nan, "{expr}: node {id:?} NaN at {at}, bounds {b:?}");
+                } else {
+                    let slack = 1e-9 * (1.0 + x.abs());
+                    let within = |lo: f64, hi: f64| lo <= x && x <= hi;
+                    assert!(
+                        within(b.lo, b.hi) || within(b.lo - slack, b.hi + slack),
+                        "{expr}: node {id:?} {x} outside {b:?} at {at}"
+                    );
+                }
+            }
+            let root_nan = scalar.iter().any(|&id| reference.value(id).is_nan());
+            dropped += (root_nan && !reference.value(root).is_nan()) as u32;
+        };
+        for _ in 0..8 {
+            let c = random_point(&mut rng, 2.0);
+            let r = rng.random_range(0.0..1.5);
+            let region = [I::new(-r, r); 4];
+            let boxed = |v: Var| match v.index() {
+                a @ 0..4 => I::new(c[a] - r, c[a] + r),
+                4..8 => I::new(-1.0, 1.0),
+                _ => I::ALL,
+            };
+            let bounds = Intervals::of(g, &boxed, None);
+            let cell = prune(g, &[root], region, c, f64::INFINITY);
+            let mut cut = Reference::new(&cell.graph, &cell.roots);
+            for _ in 0..16 {
+                let local: [f64; 4] = std::array::from_fn(|_| rng.random_range(-r..=r));
+                let p: [f64; 4] = std::array::from_fn(|a| c[a] + local[a]);
+                reference.run(&vars(p, [0.0; 4], 0.5));
+                check(
+                    &bounds,
+                    &reference,
+                    format!("{p:?} in the box of {c:?} and {r}"),
+                );
+                // A `min` or `max` of a NaN and a number is either, by their order, which the
+                // graph does not keep (`I::dropping`): nothing to compare there.
+                if either_form(g, &live, &reference) {
+                    continue;
+                }
+                cut.run(&vars(local, [0.0; 4], 0.5));
+                let (want, got) = (reference.value(root), cut.value(cell.roots[0]));
+                // (The pruned graph runs in coordinates local to the box: its own roundings.)
+                let same = want == got || (want - got).abs() <= 1e-9 * (1.0 + want.abs());
+                assert!(
+                    same || (want.is_nan() && got.is_nan()),
+                    "{expr}: pruned to the box of {c:?} and {r}: {got} against {want} at {p:?}"
+                );
+                pruned_points += 1;
+                nan_points += want.is_nan() as u32;
+            }
+            let (o, d) = (random_point(&mut rng, 2.0), random_unit(&mut rng));
+            let len = [0.0, 0.1, 1.0, 4.0][rng.random_range(0..4)];
+            let bounds = Intervals::along(&mut along, g, o, d, len);
+            for k in 0..=16 {
+                let s = len * k as f64 / 16.0;
+                reference.run(&vars(
+                    std::array::from_fn(|a| o[a] + d[a] * s),
+                    [0.0; 4],
+                    0.5,
+                ));
+                check(
+                    bounds,
+                    &reference,
+                    format!("s = {s} of {len} from {o:?} along {d:?}"),
+                );
+            }
+        }
+    }
+    assert!(nan_values > 10_000, "{nan_values} NaN values");
+    assert!(dropped > 1_000, "{dropped} points where a NaN was dropped");
+    assert!(fields > 200, "{fields} fields");
+    assert!(
+        pruned_points > 10_000 && nan_points > 1_000,
+        "{pruned_points}, {nan_points}"
+    );
+}

@@ -7,29 +7,48 @@
 use super::{Bin, Graph, Id, Node, Un, Var};
 use crate::math::kernel as k;
 
-/// A closed interval `lo..=hi`. No node's bounds are ever NaN (`Intervals`): where they would
-/// be (a logarithm or an arcsine over a range past its domain, `inf - inf`), nothing is known
-/// and they are the whole line (`I::known`). A NaN bound would not be conservative: `min` and
+/// A closed interval `lo..=hi` of a node's values, and whether the node may also be NaN there
+/// (`nan`). No node's bounds are ever NaN (`Intervals`): where they would be (a logarithm or
+/// an arcsine over a range past its domain, `inf - inf`), nothing is known and they are the
+/// whole line, possibly NaN (`I::known`). A NaN bound would not be conservative: `min` and
 /// `max` (`f64::min`) drop a NaN operand, so `min(log(y), |p| - 1)` beside the ball would read
 /// as positive though the slab `0 < y <= 1` is solid, and a proof or a pruning decision read
-/// from it would be wrong.
+/// from it would be wrong. The kernel's own `min`, `max`, comparisons and `sign` drop NaN
+/// values too (`max(a, b)` is `a` where `b` is NaN, and NaN where `a` is), so the flag follows
+/// a possible NaN up the graph to where one is dropped, and the bounds there take in what the
+/// kernel returns instead.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct I {
     pub lo: f64,
     pub hi: f64,
+    /// The node may be NaN (undefined) somewhere in the box, besides its values in `lo..=hi`.
+    pub nan: bool,
 }
 
 impl I {
     pub const ALL: I = I {
         lo: f64::NEG_INFINITY,
         hi: f64::INFINITY,
+        nan: false,
+    };
+    /// Nothing known, NaN included: past a function's domain.
+    const UNDEFINED: I = I {
+        nan: true,
+        ..I::ALL
     };
 
     pub fn new(lo: f64, hi: f64) -> I {
-        I { lo, hi }
+        I { lo, hi, nan: false }
     }
     pub fn point(x: f64) -> I {
-        I { lo: x, hi: x }
+        I::new(x, x)
+    }
+    /// These bounds, possibly NaN as well where `nan`.
+    fn or_nan(self, nan: bool) -> I {
+        I {
+            nan: self.nan || nan,
+            ..self
+        }
     }
     /// These bounds, or the whole line where either is NaN (nothing is known). Applied to each
     /// node's bounds (and each line along a ray, `Line::known`) as they are stored, not in
@@ -39,7 +58,7 @@ impl I {
     /// the whole line.
     fn known(self) -> I {
         if self.lo.is_nan() || self.hi.is_nan() {
-            I::ALL
+            I::UNDEFINED
         } else {
             self
         }
@@ -52,21 +71,30 @@ impl I {
     pub fn excludes_zero(self) -> bool {
         self.lo > 0.0 || self.hi < 0.0
     }
+    /// Whether every value is positive and none NaN: a distance that proves a ray clear.
+    pub fn positive(self) -> bool {
+        self.lo > 0.0 && !self.nan
+    }
+    /// Whether every value is nonzero and none NaN: an unsigned distance that proves it.
+    pub fn nonzero(self) -> bool {
+        self.excludes_zero() && !self.nan
+    }
+    /// A single number, and never NaN.
     fn is_point(self) -> bool {
-        self.lo == self.hi
+        self.lo == self.hi && !self.nan
     }
     fn union(self, o: I) -> I {
-        I::new(self.lo.min(o.lo), self.hi.max(o.hi))
+        I::new(self.lo.min(o.lo), self.hi.max(o.hi)).or_nan(self.nan || o.nan)
     }
     /// The image under a nondecreasing function.
     fn up(self, f: impl Fn(f64) -> f64) -> I {
-        I::new(f(self.lo), f(self.hi))
+        I::new(f(self.lo), f(self.hi)).or_nan(self.nan)
     }
     fn add(self, o: I) -> I {
-        I::new(self.lo + o.lo, self.hi + o.hi)
+        I::new(self.lo + o.lo, self.hi + o.hi).or_nan(self.nan || o.nan)
     }
     fn neg(self) -> I {
-        I::new(-self.hi, -self.lo)
+        I::new(-self.hi, -self.lo).or_nan(self.nan)
     }
     fn mul(self, o: I) -> I {
         let p = [
@@ -75,13 +103,19 @@ impl I {
             self.hi * o.lo,
             self.hi * o.hi,
         ];
-        if p.iter().any(|x| x.is_nan()) {
-            return I::ALL;
+        // An infinite bound times zero, or an infinity (`1 / 0`) times an operand that may
+        // be 0. (An operand that may be infinite, not only tend to it along a ray, is marked
+        // as maybe NaN already: `Bin::Div`, `Un::Ln`.)
+        let infinity = |x: I, y: I| x.lo == x.hi && x.lo.is_infinite() && y.contains(0.0);
+        if p.iter().any(|x| x.is_nan()) || infinity(self, o) || infinity(o, self) {
+            return I::UNDEFINED;
         }
+        let nan = self.nan || o.nan;
         I::new(
             p.iter().cloned().fold(f64::INFINITY, f64::min),
             p.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
         )
+        .or_nan(nan)
     }
     fn abs(self) -> I {
         if self.lo >= 0.0 {
@@ -89,18 +123,27 @@ impl I {
         } else if self.hi <= 0.0 {
             self.neg()
         } else {
-            I::new(0.0, (-self.lo).max(self.hi))
+            I::new(0.0, (-self.lo).max(self.hi)).or_nan(self.nan)
         }
     }
     fn square(self) -> I {
         let a = self.abs();
-        I::new(a.lo * a.lo, a.hi * a.hi)
+        I::new(a.lo * a.lo, a.hi * a.hi).or_nan(a.nan)
     }
     fn min(self, o: I) -> I {
-        I::new(self.lo.min(o.lo), self.hi.min(o.hi))
+        I::new(self.lo.min(o.lo), self.hi.min(o.hi)).dropping(self, o)
     }
     fn max(self, o: I) -> I {
-        I::new(self.lo.max(o.lo), self.hi.max(o.hi))
+        I::new(self.lo.max(o.lo), self.hi.max(o.hi)).dropping(self, o)
+    }
+    /// The bounds `self` of a `min` or `max` of `a` and `b` (for numbers), with what the kernel
+    /// makes of a NaN operand: `max(a, b)` is `a` where `b` is NaN and NaN where `a` is. The
+    /// graph treats them as commutative (it orders their operands by id, and tapes put a
+    /// constant second), so either operand may be the one kept: both are taken in.
+    fn dropping(self, a: I, b: I) -> I {
+        let i = self.or_nan(a.nan || b.nan);
+        let i = if a.nan { i.union(b) } else { i };
+        if b.nan { i.union(a) } else { i }
     }
     /// A truth value: certainly true, certainly false, or either.
     fn truth(always: bool, never: bool) -> I {
@@ -120,44 +163,60 @@ fn un(op: Un, a: I) -> I {
         Un::Neg => a.neg(),
         Un::Abs => a.abs(),
         // NaN below zero, which a `min` or `max` would drop: nothing is known there.
-        Un::Sqrt if a.lo < 0.0 => I::ALL,
-        Un::Sqrt => I::new(a.lo.sqrt(), a.hi.sqrt()),
+        Un::Sqrt if a.lo < 0.0 => I::UNDEFINED,
+        Un::Sqrt => I::new(a.lo.sqrt(), a.hi.sqrt()).or_nan(a.nan),
         Un::Floor => a.up(f64::floor),
         Un::Ceil => a.up(f64::ceil),
         Un::Round => a.up(k::round),
         Un::Fract if a.lo.floor() == a.hi.floor() => a.up(|x| x - x.floor()),
-        Un::Fract => I::new(0.0, 1.0),
+        Un::Fract => I::new(0.0, 1.0).or_nan(a.nan),
+        // The sign of NaN is 0.
+        Un::Sign if a.nan => I::new(a.lo, a.hi)
+            .up(|x| k::un(Un::Sign, x))
+            .union(I::point(0.0)),
         Un::Sign => a.up(|x| k::un(Un::Sign, x)),
-        Un::Sin | Un::Cos => I::new(-1.0, 1.0),
-        Un::Tan => I::ALL,
-        Un::Asin | Un::Atan | Un::Exp | Un::Ln => a.up(|x| k::un(op, x)),
-        Un::Acos => I::new(a.hi.acos(), a.lo.acos()),
+        Un::Sin | Un::Cos => I::new(-1.0, 1.0).or_nan(a.nan),
+        Un::Tan => I::ALL.or_nan(a.nan),
+        // `log(0)` is `-inf`, which a product with 0 or a difference makes NaN.
+        Un::Ln => a.up(|x| k::un(op, x)).or_nan(a.lo <= 0.0),
+        Un::Asin | Un::Atan | Un::Exp => a.up(|x| k::un(op, x)),
+        Un::Acos => I::new(a.hi.acos(), a.lo.acos()).or_nan(a.nan),
+        // `!NaN` is 0, as `!x` for any `x` that is not 0.
         Un::Not => I::truth(false, a.excludes_zero()),
     }
 }
 
 fn bin(op: Bin, a: I, b: I) -> I {
-    if a.is_point() && b.is_point() {
+    // A point at 0 may be either zero (`0 * -x`), which these tell apart: `1 / -0` is `-inf`.
+    let signed = matches!(op, Bin::Div | Bin::Mod | Bin::Pow | Bin::Atan2);
+    if a.is_point() && b.is_point() && !(signed && (a.lo == 0.0 || b.lo == 0.0)) {
         return I::point(k::bin(op, a.lo, b.lo));
     }
+    let nan = a.nan || b.nan;
     match op {
         Bin::Add => a.add(b),
         Bin::Sub => a.add(b.neg()),
         Bin::Mul => a.mul(b),
-        Bin::Div if b.excludes_zero() => a.mul(I::new(1.0 / b.hi, 1.0 / b.lo)),
-        Bin::Div => I::ALL,
+        Bin::Div if b.excludes_zero() => a.mul(I::new(1.0 / b.hi, 1.0 / b.lo).or_nan(b.nan)),
+        // `0 / 0`, or an infinity that a product with 0 or a difference makes NaN.
+        Bin::Div => I::UNDEFINED,
+        // `x mod 0` is NaN.
         Bin::Mod => {
             let m = b.abs().hi;
-            I::new(-m, m)
+            I::new(-m, m).or_nan(nan || !b.excludes_zero())
         }
         Bin::Min => a.min(b),
         Bin::Max => a.max(b),
-        Bin::Pow | Bin::Atan2 => I::ALL,
-        Bin::Lt => I::truth(a.hi < b.lo, a.lo >= b.hi),
-        Bin::Le => I::truth(a.hi <= b.lo, a.lo > b.hi),
+        // A negative number to a fractional power.
+        Bin::Pow => I::UNDEFINED,
+        Bin::Atan2 => I::ALL.or_nan(nan),
+        // A comparison with NaN is false (0), `!=` true: never certainly the other.
+        Bin::Lt => I::truth(a.hi < b.lo && !nan, a.lo >= b.hi),
+        Bin::Le => I::truth(a.hi <= b.lo && !nan, a.lo > b.hi),
         Bin::Eq => I::truth(false, a.hi < b.lo || a.lo > b.hi),
         Bin::Ne => I::truth(a.hi < b.lo || a.lo > b.hi, false),
         Bin::And | Bin::Or => {
+            // NaN is not 0, so it is true: an operand that may be NaN is not certainly 0.
             let no = |x: I| x == I::point(0.0);
             if op == Bin::And {
                 I::truth(a.excludes_zero() && b.excludes_zero(), no(a) || no(b))
@@ -261,7 +320,7 @@ impl Line {
     fn known(self) -> Line {
         if self.base.lo.is_nan() || self.base.hi.is_nan() || self.slope.is_nan() {
             Line {
-                base: I::ALL,
+                base: I::UNDEFINED,
                 slope: 0.0,
             }
         } else {
@@ -271,10 +330,10 @@ impl Line {
     /// Every value over `0..=len`.
     fn range(self, len: f64) -> I {
         match self.slope {
-            m if m > 0.0 => I::new(self.base.lo, self.base.hi + m * len),
-            m if m < 0.0 => I::new(self.base.lo + m * len, self.base.hi),
+            m if m > 0.0 => I::new(self.base.lo, self.base.hi + m * len).or_nan(self.base.nan),
+            m if m < 0.0 => I::new(self.base.lo + m * len, self.base.hi).or_nan(self.base.nan),
             0.0 => self.base,
-            _ => I::ALL,
+            _ => I::UNDEFINED,
         }
     }
     fn add(self, o: Line) -> Line {
@@ -310,6 +369,11 @@ impl Line {
 /// has one.
 fn line(n: &Node, f: &[Line], o: [f64; 4], d: [f64; 4], len: f64) -> Option<Line> {
     let g = |x: Id| f[x.0 as usize];
+    // Linear forms hold for numbers: an operand that may be NaN is bounded (`Intervals::node`),
+    // which knows where the kernel drops a NaN.
+    if n.children().iter().any(|&x| g(x).base.nan) {
+        return None;
+    }
     let row = |v: [Id; 4], r: [super::K; 5]| {
         (0..4).fold(Line::point(r[4].get()), |acc, i| {
             acc.add(g(v[i]).scale(r[i].get()))
@@ -699,6 +763,9 @@ impl Intervals {
                     acc.add(g(v[i]).mul(I::point(r[i])))
                 });
             }
+            // The kernel's `max` of the four faces keeps a face where a later one is NaN,
+            // in its own order.
+            Node::BoxDist(v, _) if v.iter().any(|&x| g(x).nan) => return I::UNDEFINED,
             Node::BoxDist(v, r) => {
                 let r = row(&r);
                 let q: [I; 4] = std::array::from_fn(|i| {
@@ -713,13 +780,17 @@ impl Intervals {
                     .add(I::point(-r[8]));
             }
             // Smooth min is nondecreasing in a and b and nonincreasing in k.
+            // A NaN operand makes the blend NaN; with no blend (`k <= 0`) they are `min` and
+            // `max`, which may drop it.
             Node::SMin(a, b, kk) => {
                 let (a, b, kk) = (g(a), g(b), g(kk));
-                return I::new(smin(a.lo, b.lo, kk.hi), smin(a.hi, b.hi, kk.lo));
+                let i = I::new(smin(a.lo, b.lo, kk.hi), smin(a.hi, b.hi, kk.lo));
+                return i.or_nan(kk.nan).dropping(a, b);
             }
             Node::SMax(a, b, kk) => {
                 let (a, b, kk) = (g(a), g(b), g(kk));
-                return I::new(-smin(-a.lo, -b.lo, kk.lo), -smin(-a.hi, -b.hi, kk.hi));
+                let i = I::new(-smin(-a.lo, -b.lo, kk.lo), -smin(-a.hi, -b.hi, kk.hi));
+                return i.or_nan(kk.nan).dropping(a, b);
             }
             Node::D4(v) => {
                 let v = v4(v);
@@ -754,7 +825,9 @@ impl Intervals {
                 return I::ALL;
             }
         };
-        self.outs.extend(tuple.into_iter().map(I::known));
+        let nan = n.children().iter().any(|&x| g(x).nan);
+        self.outs
+            .extend(tuple.into_iter().map(|x| x.or_nan(nan).known()));
         I::ALL
     }
 }
@@ -772,9 +845,10 @@ fn smin(a: f64, b: f64, kk: f64) -> f64 {
 }
 
 /// Which operand `min_id(best, _, d, _)` returns over the bounds: `Some(true)` for `d`
-/// (`d < best` everywhere), `Some(false)` for `best`, `None` when it varies.
+/// (`d < best` everywhere, neither NaN: a comparison with NaN is false), `Some(false)` for
+/// `best`, `None` when it varies.
 pub fn min_id_choice(best: I, d: I) -> Option<bool> {
-    if d.hi < best.lo {
+    if d.hi < best.lo && !best.nan && !d.nan {
         Some(true)
     } else if d.lo >= best.hi {
         Some(false)

@@ -162,9 +162,9 @@ fn prune_live(
 
 /// Which operand of a min-with-id the bounds choose (`Some(true)`: `d`). Against an infinite
 /// `best` (no object yet) the pair only differs where `d` is infinite too, which no ray can
-/// hit: take `d`.
+/// hit, or NaN: take `d` where it cannot be NaN.
 fn pair(best: I, d: I) -> Option<bool> {
-    min_id_choice(best, d).or((best == I::point(f64::INFINITY)).then_some(true))
+    min_id_choice(best, d).or((best == I::point(f64::INFINITY) && !d.nan).then_some(true))
 }
 
 /// The plan of every node of `g` for the box: bounds over it (in `g`'s own coordinates,
@@ -202,9 +202,10 @@ fn plan(
             continue;
         }
         let n = g.get(Id(i as u32));
-        let far = iv.get(Id(i as u32)).lo;
-        plan[i] = if cuttable[i] && far >= reach {
-            Plan::Bound(far)
+        let far = iv.get(Id(i as u32));
+        // (A node that may be NaN is not a distance the cut's bound stands for.)
+        plan[i] = if cuttable[i] && far.lo >= reach && !far.nan {
+            Plan::Bound(far.lo)
         } else if let Node::MinId(best, best_id, d, _) = n
             && let Some(take_d) = pair(iv.get(best), iv.get(d))
         {
@@ -263,10 +264,13 @@ fn cuttable(g: &Graph, live: &[bool]) -> Vec<bool> {
 fn choose(iv: &Intervals, n: Node) -> Result<Id, Node> {
     let v = |x: Id| iv.get(x);
     let below = |a: Id, b: Id| v(a).hi <= v(b).lo;
-    // `a - b >= k` everywhere: the polynomial blend of width `k` is zero.
+    // `a - b >= k` everywhere: the polynomial blend of width `k` is zero. Where an operand may
+    // be NaN, the blend is NaN (a `min` or `max` of a NaN and a number is either, by an order
+    // the graph does not keep: `I::dropping`).
     let apart = |a: Id, b: Id, k: Id| {
+        let numbers = !v(a).nan && !v(b).nan && !v(k).nan;
         let k = v(k).hi;
-        k >= 0.0 && v(a).lo - v(b).hi >= k
+        k >= 0.0 && v(a).lo - v(b).hi >= k && numbers
     };
     match n {
         Node::Bin(Bin::Min, a, b) if below(a, b) => Ok(a),
@@ -291,6 +295,11 @@ fn choose(iv: &Intervals, n: Node) -> Result<Id, Node> {
 /// node as it is.
 fn box_faces(g: &mut Graph, iv: &Intervals, v: [Id; 4], r: [K; 9]) -> Id {
     let r = r.map(K::get);
+    let whole = |g: &mut Graph| simplify(g, Node::BoxDist(v, r.map(K::new)), None);
+    // The kernel's `max` of the faces keeps one where a later one is NaN, in its own order.
+    if v.iter().any(|&x| iv.get(x).nan) {
+        return whole(g);
+    }
     let u: [I; 4] = std::array::from_fn(|a| {
         let x = iv.get(v[a]);
         I::new(x.lo + r[a], x.hi + r[a])
@@ -306,7 +315,6 @@ fn box_faces(g: &mut Graph, iv: &Intervals, v: [Id; 4], r: [K; 9]) -> Id {
             None
         }
     });
-    let whole = |g: &mut Graph| simplify(g, Node::BoxDist(v, r.map(K::new)), None);
     let hi = |a: usize| q[a].map_or(f64::INFINITY, |x| x.1.hi);
     let lo = |a: usize| q[a].map_or(f64::NEG_INFINITY, |x| x.1.lo);
     // Where at most one axis can put the point outside, the distance is the largest of the

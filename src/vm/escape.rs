@@ -207,7 +207,10 @@ impl Escape {
     /// and bounded piece by piece, each exact in its cell, as far as they hold: a ray in a
     /// lattice's channel, far from every piece, leaps across many cells at once.
     pub fn clear(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> f64 {
-        if self.along(p, d, len, interior, proofs).0.lo > 0.0 {
+        let proven = |from, len, proofs: &mut Proofs| {
+            (self.along(from, d, len, interior, proofs).0).positive()
+        };
+        if proven(p, len, proofs) {
             return len;
         }
         let mut cuts = std::mem::take(&mut proofs.cuts);
@@ -215,7 +218,7 @@ impl Escape {
         if proofs.along.crossings(&self.whole, len, PIECES, &mut cuts) {
             for &end in &cuts {
                 let from = p + d * clear;
-                if self.along(from, d, end - clear, interior, proofs).0.lo <= 0.0 {
+                if !proven(from, end - clear, proofs) {
                     break;
                 }
                 clear = end;
@@ -280,11 +283,7 @@ impl Escape {
             proofs.bounded += self.graph.len() as u64;
             for (i, r) in self.roots.iter().enumerate() {
                 let x = iv.get(*r);
-                let clear = if interior {
-                    x.excludes_zero()
-                } else {
-                    x.lo > 0.0
-                };
+                let clear = if interior { x.nonzero() } else { x.positive() };
                 match i {
                     0..64 if clear => *keep &= !(1 << i),
                     0..64 => {}
@@ -391,7 +390,7 @@ fn never_clears(g: &Graph, roots: &[Id]) -> [bool; 2] {
             .iter()
             .any(|r| tiled[r.0 as usize] && !clears(iv.get(*r)))
     };
-    [never(|x| x.lo > 0.0), never(I::excludes_zero)]
+    [never(I::positive), never(I::nonzero)]
 }
 
 /// A marcher's scratch space for escape proofs, and their cost so far.
@@ -439,7 +438,7 @@ pub fn proven_box(g: &Graph, id: Id, t: f64) -> Option<(DVec4, DVec4)> {
             _ => I::ALL,
         };
         let iv = Intervals::of(&cone, &vars, None);
-        iv.get(root).lo > 0.0
+        iv.get(root).positive()
     };
     let (mut lo, mut hi) = (DVec4::ZERO, DVec4::ZERO);
     for axis in 0..4 {
@@ -678,6 +677,19 @@ mod tests {
         let d = d.normalize();
         assert!(!e.escapes(o, d, false, &mut e.unbounded(), &mut proofs));
         assert!(e.clear(o, d, 10.0, false, &mut proofs) < 4.0);
+        // A NaN that an outer `max` drops: past `x = 0` the inner `max` is NaN (its first
+        // operand is), and the outer one keeps `-1 - z^2` there, solid. The inner `max`'s
+        // bounds must not read as at least `y - 0.5` where its first operand may be NaN.
+        let e = escape_of(&scene(&[
+            "sdf |p| max(-1 - p.z * p.z, max(sqrt(p.x), p.y - 0.5))",
+        ]));
+        let (o, d) = (
+            DVec4::new(1.0, 1.0, 0.0, 0.0),
+            DVec4::new(-1.0, 0.2, 0.0, 0.0),
+        );
+        let d = d.normalize();
+        assert!(!e.escapes(o, d, false, &mut e.unbounded(), &mut proofs));
+        assert!(e.clear(o, d, 10.0, false, &mut proofs) < 1.1);
     }
 
     /// The proofs skipped (`never_clears`) are only ones that would have failed: on random
