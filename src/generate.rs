@@ -3,7 +3,8 @@
 //! boxes, halfspaces, slabs of two halfspaces, union / intersect / subtract with and without
 //! `smooth`, onion, round, rotations in all six planes, translations, grid tilings, custom
 //! `sdf` fields and glass, at scales from 1e-3 to 1e4 and sometimes far from the origin, with
-//! cameras outside and inside objects. A seed always gives the same scene.
+//! cameras outside and inside objects; and the same scenes set moving with the frame variable
+//! `t` (`generate_moving`). A seed always gives the same scene.
 
 use glam::DVec4;
 use rand::{Rng, SeedableRng};
@@ -102,6 +103,31 @@ fn shape(rng: &mut Pcg64Mcg, s: f64, depth: u32) -> String {
 
 /// The scene of `seed`: an 8 x 8 image, 1 spp, 2 bounces, a white sky, 1 to 3 objects.
 pub fn generate(seed: u64) -> Generated {
+    generated(seed, None)
+}
+
+/// `generate(seed)`'s scene over 5 frames, each object turning, moving or rounding with the
+/// frame variable `t`: still at `t = 0` (the motions are drawn from a stream of their own, so
+/// the rest of the scene is `generate`'s).
+pub fn generate_moving(seed: u64) -> Generated {
+    generated(seed, Some(Pcg64Mcg::seed_from_u64(seed ^ 0x6d6f_7669_6e67)))
+}
+
+/// A motion with `t` of a shape of size about `s`, 0 at `t = 0`.
+fn motion(rng: &mut Pcg64Mcg, s: f64) -> String {
+    match rng.random_range(0..3) {
+        0 => format!(
+            "rotate({}, {:.3}deg * t)",
+            PLANES[rng.random_range(0..6)],
+            num(rng, -90.0, 90.0)
+        ),
+        1 => format!("translate({} * t)", vec4(rng, s)),
+        _ => format!("round({:.6e} * t)", s * num(rng, 0.01, 0.2)),
+    }
+}
+
+/// `generate`, with objects set moving by draws from `moving`.
+fn generated(seed: u64, mut moving: Option<Pcg64Mcg>) -> Generated {
     let mut rng = Pcg64Mcg::seed_from_u64(seed);
     let scale = [1e-3, 1.0, 1.0, 1.0, 30.0, 1e4][rng.random_range(0..6)];
     let far = if rng.random_bool(0.2) {
@@ -115,7 +141,12 @@ pub fn generate(seed: u64) -> Generated {
     // Outside the objects mostly, sometimes among them.
     let from = centre + dir * scale * [6.0, 3.0, 0.5][rng.random_range(0..3)];
     let mut src = String::new();
-    writeln!(src, "render {{ size = 8 x 8  spp = 1  bounces = 2 }}").unwrap();
+    let frames = if moving.is_some() { "  frames = 5" } else { "" };
+    writeln!(
+        src,
+        "render {{ size = 8 x 8  spp = 1  bounces = 2{frames} }}"
+    )
+    .unwrap();
     writeln!(
         src,
         "camera {{ from = {}  to = {}  fov = 70deg }}",
@@ -130,7 +161,10 @@ pub fn generate(seed: u64) -> Generated {
         } else {
             "diffuse(rgb(0.5))"
         };
-        let s = shape(&mut rng, scale, 2);
+        let mut s = shape(&mut rng, scale, 2);
+        if let Some(moving) = &mut moving {
+            s = format!("({s}) |> {}", motion(moving, scale));
+        }
         writeln!(
             src,
             "object o{i} {{ shape = ({s}) |> translate({}) material = {material} }}",

@@ -14,13 +14,16 @@
 //!   a root may go either way);
 //! - rays out of steps are counted: at most 1 in 100,000 segments for the cells' marcher.
 //!
+//! The same scenes set moving with the frame variable `t` (`generate_moving`) are checked at
+//! a later frame, against the reference at that `t`.
+//!
 //! `cargo test --release --test marcher_differential` runs a few hundred scenes;
 //! `cargo test --release -- --ignored soak` runs 10,000 and prints each failure as a scene.
 
 use glam::DVec4;
 use hyperslice::Compilation;
 use hyperslice::compile::Frames;
-use hyperslice::generate::{Generated, generate};
+use hyperslice::generate::{Generated, generate, generate_moving};
 use hyperslice::ir::eval::{Reference, vars};
 use hyperslice::ir::{Id, SceneIr};
 use hyperslice::render::frame::{Build, FrameScene};
@@ -30,15 +33,16 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::fmt::Write;
 
-/// The reference distances of a scene: its unoptimised IR walked in `f64`.
+/// The reference distances of a scene at time `t`: its unoptimised IR walked in `f64`.
 struct Truth<'g> {
     ir: &'g SceneIr,
     eval: Reference<'g>,
+    t: f64,
 }
 
 impl Truth<'_> {
     fn at(&mut self, root: Id, p: DVec4) -> f64 {
-        self.eval.run(&vars(p.to_array(), [0.0; 4], 0.0));
+        self.eval.run(&vars(p.to_array(), [0.0; 4], self.t));
         self.eval.value(root)
     }
 
@@ -228,9 +232,10 @@ fn check(
     hits
 }
 
-/// Camera rays, then from their hits bounce rays (out of the surface), shadow rays (to a
-/// point near the camera) and, into enterable objects, interior rays.
-fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
+/// Camera rays of the frame at time `t`, then from their hits bounce rays (out of the
+/// surface), shadow rays (to a point near the camera) and, into enterable objects, interior
+/// rays.
+fn run_scene(g: &Generated, t: f64, kind: MarcherKind, tally: &mut Tally) {
     let c = Compilation::from_source("generated.4ds", &g.source);
     assert!(
         !c.has_errors(),
@@ -240,7 +245,7 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
     );
     let scene = c.scene.expect("a scene");
     let frames = Frames::new(&scene);
-    let fs = frames.at(0.0, Build::marcher(kind));
+    let fs = frames.at(t, Build::marcher(kind));
     tally.exact += fs.field().pieces(false).is_some() as u64;
     let ir = hyperslice::ir::lower(&scene);
     let mut roots = vec![ir.distance];
@@ -249,6 +254,7 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
     let mut truth = Truth {
         eval: Reference::new(&ir.graph, &roots),
         ir: &ir,
+        t,
     };
     let limits = frames.shot.limits;
     let (w, h) = (8, 8);
@@ -307,21 +313,26 @@ fn run_scene(g: &Generated, kind: MarcherKind, tally: &mut Tally) {
     check(kind, &fs, &mut truth, &inside, limits, g.scale, tally);
 }
 
-/// Run `n` scenes from `seed` with `kind`; report each failing scene with its first faults.
-fn soak(seed: u64, n: u64, kind: MarcherKind) -> (Tally, Vec<(u64, String)>) {
+/// Run `n` scenes from `seed` with `kind`, or where `moving`, those scenes set moving at one of
+/// their later frames (`t` a quarter to 1, by the seed); report each failing scene with its
+/// first faults.
+fn soak(seed: u64, n: u64, kind: MarcherKind, moving: bool) -> (Tally, Vec<(u64, String)>) {
     let mut total = Tally::default();
     let mut failures = vec![];
     for s in seed..seed + n {
-        let mut g = generate(s);
+        let (mut g, t) = match moving {
+            true => (generate_moving(s), (s % 4 + 1) as f64 / 4.0),
+            false => (generate(s), 0.0),
+        };
         // A scene being shrunk by hand, from a file, in place of the generated one.
         if let Ok(path) = std::env::var("SOAK_SCENE") {
             g.source = std::fs::read_to_string(path).expect("SOAK_SCENE names a scene file");
         }
         let mut tally = Tally::default();
-        run_scene(&g, kind, &mut tally);
+        run_scene(&g, t, kind, &mut tally);
         if !tally.faults.is_empty() {
             let mut report = format!(
-                "scene {s} ({} of {} rays wrong):\n{}",
+                "scene {s} at t = {t} ({} of {} rays wrong):\n{}",
                 tally.faults.len(),
                 tally.segments,
                 g.source
@@ -357,8 +368,8 @@ const KNOWN: [u64; 0] = [];
 /// goal (measured: 0 of 38,460 since crawling rays leap; 91 before).
 const CI_OUT_OF_STEPS: u64 = 1;
 
-fn assert_sound(kind: MarcherKind, from: u64, n: u64) {
-    let (tally, failures, known) = tally(kind, from, n);
+fn assert_sound(kind: MarcherKind, from: u64, n: u64, moving: bool) {
+    let (tally, failures, known) = tally(kind, from, n, moving);
     let wrong = failures.len() + known.len();
     assert!(wrong == 0, "{wrong} scenes disagree");
     assert!(
@@ -370,16 +381,17 @@ fn assert_sound(kind: MarcherKind, from: u64, n: u64) {
 }
 
 /// Run and print the scenes' tally and their failures (the scenes known to fail apart).
-fn tally(kind: MarcherKind, from: u64, n: u64) -> (Tally, Vec<String>, Vec<u64>) {
-    let (tally, mut failures) = soak(from, n, kind);
+fn tally(kind: MarcherKind, from: u64, n: u64, moving: bool) -> (Tally, Vec<String>, Vec<u64>) {
+    let (tally, mut failures) = soak(from, n, kind, moving);
     let known: Vec<u64> = (failures.iter())
         .map(|(s, _)| *s)
         .filter(|s| KNOWN.contains(s))
         .collect();
     failures.retain(|(s, _)| !KNOWN.contains(s));
     eprintln!(
-        "{}: {n} scenes ({} of exact pieces), {} segments, {} out of steps, {} faults in {} scenes",
+        "{}: {n} {}scenes ({} of exact pieces), {} segments, {} out of steps, {} faults in {} scenes",
         kind.name(),
+        if moving { "moving " } else { "" },
         tally.exact,
         tally.segments,
         tally.out_of_steps,
@@ -397,7 +409,7 @@ fn tally(kind: MarcherKind, from: u64, n: u64) -> (Tally, Vec<String>, Vec<u64>)
 
 #[test]
 fn generated_scenes_agree_with_the_reference() {
-    let (tally, failures, _) = tally(MarcherKind::Cells, 1, 300);
+    let (tally, failures, _) = tally(MarcherKind::Cells, 1, 300, false);
     assert!(
         failures.is_empty(),
         "{} new scenes disagree",
@@ -414,7 +426,7 @@ fn generated_scenes_agree_with_the_reference() {
 #[test]
 fn the_whole_tape_marchers_agree_with_the_reference() {
     for kind in [MarcherKind::Plain, MarcherKind::Whole] {
-        let (tally, failures, known) = tally(kind, 1, 300);
+        let (tally, failures, known) = tally(kind, 1, 300, false);
         let wrong = failures.len() + known.len();
         assert!(wrong == 0, "{}: {wrong} scenes disagree", kind.name());
         // The whole tape meets the scenes of a few exact pieces at once; plain never does.
@@ -423,6 +435,29 @@ fn the_whole_tape_marchers_agree_with_the_reference() {
             kind == MarcherKind::Whole,
             "{}",
             tally.exact
+        );
+    }
+}
+
+/// The scenes set moving with `t` (each object turned, moved or rounded by it) agree with the
+/// reference at a later frame, for the cells' marcher and the whole tape's: the frames are
+/// compiled for their `t`, and nothing else marches an animated scene's later frames.
+#[test]
+fn moving_scenes_agree_with_the_reference() {
+    for kind in [MarcherKind::Cells, MarcherKind::Whole] {
+        let (tally, failures, _) = tally(kind, 1, 150, true);
+        assert!(
+            failures.is_empty(),
+            "{}: {} scenes disagree",
+            kind.name(),
+            failures.len()
+        );
+        assert!(
+            tally.out_of_steps * 100_000 <= CI_OUT_OF_STEPS * tally.segments,
+            "{}: {} of {} segments out of steps",
+            kind.name(),
+            tally.out_of_steps,
+            tally.segments
         );
     }
 }
@@ -446,7 +481,7 @@ fn shrunk_scenes_agree_with_the_reference() {
         let g = Generated { source, scale };
         for kind in [MarcherKind::Cells, MarcherKind::Whole, MarcherKind::Plain] {
             let mut tally = Tally::default();
-            run_scene(&g, kind, &mut tally);
+            run_scene(&g, 0.0, kind, &mut tally);
             assert!(
                 tally.faults.is_empty() && tally.out_of_steps == 0,
                 "{} ({}): {} of {} rays wrong, {} out of steps; first {:?}",
@@ -462,7 +497,8 @@ fn shrunk_scenes_agree_with_the_reference() {
 }
 
 /// `SOAK_FROM`, `SOAK_COUNT` and `SOAK_MARCHER` (cells, whole, plain or auto) choose the scenes and the
-/// marcher: `SOAK_FROM=92 SOAK_COUNT=1` reruns one scene. `SOAK_SHOW=N` prints the first N
+/// marcher: `SOAK_FROM=92 SOAK_COUNT=1` reruns one scene; `SOAK_MOVING=1` sets them moving
+/// (`generate_moving`, at a later frame). `SOAK_SHOW=N` prints the first N
 /// failing scenes, `SOAK_STUCK=1` every scene with rays out of steps (and their kinds), and
 /// `SOAK_SCENE=FILE` marches that scene instead of the generated one (with its scale), to
 /// shrink a failure by hand.
@@ -481,5 +517,6 @@ fn soak_generated_scenes() {
         Ok("auto") => MarcherKind::Auto,
         _ => MarcherKind::Cells,
     };
-    assert_sound(kind, var("SOAK_FROM", 1), var("SOAK_COUNT", 10_000));
+    let moving = var("SOAK_MOVING", 0) == 1;
+    assert_sound(kind, var("SOAK_FROM", 1), var("SOAK_COUNT", 10_000), moving);
 }
