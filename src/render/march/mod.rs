@@ -851,8 +851,10 @@ fn approach(
     proofs: &mut Proofs,
 ) -> Step {
     let t = st.t;
-    // A ray that starts well inside (a camera in an object) meets it where it starts.
-    if t <= 0.0 && d < -tol {
+    // A ray that starts well inside (a camera in an object) meets it where it starts, in
+    // `f64` too: the tape's constants may be far larger than the point (an object moved
+    // from far away to near the origin), and their rounding with them.
+    if t <= 0.0 && d < -tol && escape.distance(r.o + r.d * t, false, proofs).0 < -tol {
         return Step::Hit { t, object };
     }
     let mut at = t;
