@@ -50,7 +50,7 @@ impl I {
             ..self
         }
     }
-    /// These bounds, or the whole line where either is NaN (nothing is known). Applied to each
+    /// These bounds, or the whole line, possibly NaN, where either is NaN. Applied to each
     /// node's bounds (and each line along a ray, `Line::known`) as they are stored, not in
     /// every operation: a check in `I::new` made escape proofs 6-8% slower. Within one node's
     /// operations a NaN drops out only where an operand is infinite, and only where the
@@ -103,14 +103,18 @@ impl I {
             self.hi * o.lo,
             self.hi * o.hi,
         ];
-        // An infinite bound times zero, or an infinity (`1 / 0`) times an operand that may
-        // be 0. (An operand that may be infinite, not only tend to it along a ray, is marked
-        // as maybe NaN already: `Bin::Div`, `Un::Ln`.)
+        let nan = self.nan || o.nan;
+        // An infinity that is a value (`1 / 0` folded to a point) times an operand that may be
+        // 0. (Infinite bounds are most often limits, along a ray that goes on for ever, which
+        // no point reaches: their products with 0 leave the whole line, not a NaN. Values
+        // that may be infinite elsewhere are not followed: see `docs/ir-and-vm.md`.)
         let infinity = |x: I, y: I| x.lo == x.hi && x.lo.is_infinite() && y.contains(0.0);
-        if p.iter().any(|x| x.is_nan()) || infinity(self, o) || infinity(o, self) {
+        if infinity(self, o) || infinity(o, self) {
             return I::UNDEFINED;
         }
-        let nan = self.nan || o.nan;
+        if p.iter().any(|x| x.is_nan()) {
+            return I::ALL.or_nan(nan);
+        }
         I::new(
             p.iter().cloned().fold(f64::INFINITY, f64::min),
             p.iter().cloned().fold(f64::NEG_INFINITY, f64::max),
@@ -178,8 +182,7 @@ fn un(op: Un, a: I) -> I {
         Un::Sin | Un::Cos => I::new(-1.0, 1.0).or_nan(a.nan),
         Un::Tan => I::ALL.or_nan(a.nan),
         // `log(0)` is `-inf`, which a product with 0 or a difference makes NaN.
-        Un::Ln => a.up(|x| k::un(op, x)).or_nan(a.lo <= 0.0),
-        Un::Asin | Un::Atan | Un::Exp => a.up(|x| k::un(op, x)),
+        Un::Asin | Un::Atan | Un::Exp | Un::Ln => a.up(|x| k::un(op, x)),
         Un::Acos => I::new(a.hi.acos(), a.lo.acos()).or_nan(a.nan),
         // `!NaN` is 0, as `!x` for any `x` that is not 0.
         Un::Not => I::truth(false, a.excludes_zero()),
@@ -188,7 +191,7 @@ fn un(op: Un, a: I) -> I {
 
 fn bin(op: Bin, a: I, b: I) -> I {
     // A point at 0 may be either zero (`0 * -x`), which these tell apart: `1 / -0` is `-inf`.
-    let signed = matches!(op, Bin::Div | Bin::Mod | Bin::Pow | Bin::Atan2);
+    let signed = matches!(op, Bin::Div | Bin::Pow | Bin::Atan2);
     if a.is_point() && b.is_point() && !(signed && (a.lo == 0.0 || b.lo == 0.0)) {
         return I::point(k::bin(op, a.lo, b.lo));
     }
@@ -198,17 +201,20 @@ fn bin(op: Bin, a: I, b: I) -> I {
         Bin::Sub => a.add(b.neg()),
         Bin::Mul => a.mul(b),
         Bin::Div if b.excludes_zero() => a.mul(I::new(1.0 / b.hi, 1.0 / b.lo).or_nan(b.nan)),
-        // `0 / 0`, or an infinity that a product with 0 or a difference makes NaN.
-        Bin::Div => I::UNDEFINED,
-        // `x mod 0` is NaN.
+        // `0 / 0`.
+        Bin::Div => I::ALL.or_nan(nan || a.contains(0.0)),
+        // `x mod 0` is NaN, and `x mod inf`.
         Bin::Mod => {
             let m = b.abs().hi;
-            I::new(-m, m).or_nan(nan || !b.excludes_zero())
+            I::new(-m, m).or_nan(nan || !b.excludes_zero() || m.is_infinite())
         }
         Bin::Min => a.min(b),
         Bin::Max => a.max(b),
-        // A negative number to a fractional power.
-        Bin::Pow => I::UNDEFINED,
+        // A negative number to a power that is not a whole number.
+        Bin::Pow => {
+            let whole = b.is_point() && b.lo.fract() == 0.0;
+            I::ALL.or_nan(nan || (a.lo < 0.0 && !whole))
+        }
         Bin::Atan2 => I::ALL.or_nan(nan),
         // A comparison with NaN is false (0), `!=` true: never certainly the other.
         Bin::Lt => I::truth(a.hi < b.lo && !nan, a.lo >= b.hi),
@@ -763,8 +769,8 @@ impl Intervals {
                     acc.add(g(v[i]).mul(I::point(r[i])))
                 });
             }
-            // The kernel's `max` of the four faces keeps a face where a later one is NaN,
-            // in its own order.
+            // A NaN face makes the distance NaN (the kernel's `max(q, 0)` keeps it), which the
+            // bounds' `max` of the faces below would drop.
             Node::BoxDist(v, _) if v.iter().any(|&x| g(x).nan) => return I::UNDEFINED,
             Node::BoxDist(v, r) => {
                 let r = row(&r);
@@ -780,16 +786,18 @@ impl Intervals {
                     .add(I::point(-r[8]));
             }
             // Smooth min is nondecreasing in a and b and nonincreasing in k.
-            // A NaN operand makes the blend NaN; with no blend (`k <= 0`) they are `min` and
-            // `max`, which may drop it.
+            // A NaN operand makes the blend NaN; with no blend (`k <= 0`, or a NaN `k`, for
+            // which `k > 0` is false) they are `min` and `max`, which may drop it.
             Node::SMin(a, b, kk) => {
                 let (a, b, kk) = (g(a), g(b), g(kk));
-                let i = I::new(smin(a.lo, b.lo, kk.hi), smin(a.hi, b.hi, kk.lo));
+                let least = if kk.nan { kk.lo.min(0.0) } else { kk.lo };
+                let i = I::new(smin(a.lo, b.lo, kk.hi), smin(a.hi, b.hi, least));
                 return i.or_nan(kk.nan).dropping(a, b);
             }
             Node::SMax(a, b, kk) => {
                 let (a, b, kk) = (g(a), g(b), g(kk));
-                let i = I::new(-smin(-a.lo, -b.lo, kk.lo), -smin(-a.hi, -b.hi, kk.hi));
+                let least = if kk.nan { kk.lo.min(0.0) } else { kk.lo };
+                let i = I::new(-smin(-a.lo, -b.lo, least), -smin(-a.hi, -b.hi, kk.hi));
                 return i.or_nan(kk.nan).dropping(a, b);
             }
             Node::D4(v) => {

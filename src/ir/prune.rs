@@ -296,7 +296,7 @@ fn choose(iv: &Intervals, n: Node) -> Result<Id, Node> {
 fn box_faces(g: &mut Graph, iv: &Intervals, v: [Id; 4], r: [K; 9]) -> Id {
     let r = r.map(K::get);
     let whole = |g: &mut Graph| simplify(g, Node::BoxDist(v, r.map(K::new)), None);
-    // The kernel's `max` of the faces keeps one where a later one is NaN, in its own order.
+    // A NaN face makes the distance NaN, where the faces' `max` might drop it.
     if v.iter().any(|&x| iv.get(x).nan) {
         return whole(g);
     }

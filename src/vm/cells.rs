@@ -483,7 +483,11 @@ impl Cell {
         } else {
             0.0
         };
-        let lower = [pr.bounds[0].lo, pr.bounds[2].lo];
+        // (A distance that may be NaN in the cell is not known to be above anything.)
+        let lower = [0, 2].map(|r| match pr.bounds[r].nan {
+            true => f64::NEG_INFINITY,
+            false => pr.bounds[r].lo,
+        });
         let exact = pieces(&pr.graph, pr.roots[0], pr.roots[1]).map(Pieces::from);
         let inner = (needs.interior)
             .then(|| pieces(&pr.graph, pr.roots[2], pr.roots[3]))

@@ -208,7 +208,7 @@ impl Escape {
     /// lattice's channel, far from every piece, leaps across many cells at once.
     pub fn clear(&self, p: DVec4, d: DVec4, len: f64, interior: bool, proofs: &mut Proofs) -> f64 {
         let proven = |from, len, proofs: &mut Proofs| {
-            (self.along(from, d, len, interior, proofs).0).positive()
+            self.along(from, d, len, interior, proofs).0.positive()
         };
         if proven(p, len, proofs) {
             return len;
@@ -690,6 +690,38 @@ mod tests {
         let d = d.normalize();
         assert!(!e.escapes(o, d, false, &mut e.unbounded(), &mut proofs));
         assert!(e.clear(o, d, 10.0, false, &mut proofs) < 1.1);
+    }
+
+    /// Fields with products, quotients, powers and logarithms that are numbers wherever a ray
+    /// goes keep their escape proofs: the bounds do not mark them as maybe NaN for an infinite
+    /// bound times 0 (a limit along the ray), a division whose numerator is never 0, a square
+    /// or the logarithm of a positive number (a reviewer's cases, which lost their proofs when
+    /// every one was marked).
+    #[test]
+    fn fields_that_are_numbers_keep_their_proofs() {
+        let s = std::f64::consts::FRAC_1_SQRT_2;
+        let mut proofs = Proofs::default();
+        for (field, o, d) in [
+            ("max(max(p.y, 0) * p.x, length(p) - 1)", [3.0, 0.5], [s, -s]),
+            ("max((p.x + 5) / p.y, length(p) - 1)", [3.0, 3.0], [s, s]),
+            (
+                "max(pow(abs(p.x), 2) - 1, length(p) - 1)",
+                [3.0, 0.5],
+                [s, s],
+            ),
+            ("max(log(abs(p.x) + 1), length(p) - 1)", [3.0, 0.5], [s, s]),
+        ] {
+            let e = escape_of(&scene(&[&format!("sdf |p| {field}")]));
+            let (o, d) = (
+                DVec4::new(o[0], o[1], 0.0, 0.0),
+                DVec4::new(d[0], d[1], 0.0, 0.0),
+            );
+            assert!(
+                e.escapes(o, d, false, &mut e.unbounded(), &mut proofs),
+                "{field}"
+            );
+            assert_eq!(e.clear(o, d, 10.0, false, &mut proofs), 10.0, "{field}");
+        }
     }
 
     /// The proofs skipped (`never_clears`) are only ones that would have failed: on random
