@@ -108,7 +108,8 @@ pub fn generate(seed: u64) -> Generated {
 
 /// `generate(seed)`'s scene over 5 frames, each object turning, moving or rounding with the
 /// frame variable `t`: still at `t = 0` (the motions are drawn from a stream of their own, so
-/// the rest of the scene is `generate`'s).
+/// the rest of the scene is `generate`'s). Its camera moves too, as every animated scene's
+/// does, from `from` to `to`: to the objects' centre, often inside one, on the last frame.
 pub fn generate_moving(seed: u64) -> Generated {
     generated(seed, Some(Pcg64Mcg::seed_from_u64(seed ^ 0x6d6f_7669_6e67)))
 }

@@ -606,7 +606,20 @@ impl Marcher {
                                     && (cells.is_outside(cell) || cell.scene_slack() > st.tol) =>
                             {
                                 let first = escape.distance(r.o + r.d * t, false, &mut self.proofs);
-                                settle(escape, r, (t, object), first, st.tol, &mut self.proofs)
+                                // Short of the surface in `f64` (the tape's constants far
+                                // larger than the point, their rounding beyond the cell's
+                                // bound of it): step on by that distance.
+                                match first.0 > st.tol {
+                                    true => Step::Advance(t - st.t + first.0),
+                                    false => settle(
+                                        escape,
+                                        r,
+                                        (t, object),
+                                        first,
+                                        st.tol,
+                                        &mut self.proofs,
+                                    ),
+                                }
                             }
                             step => step,
                         };
