@@ -268,6 +268,18 @@ fn interval_bounds_contain_every_value() {
     }
 }
 
+/// The reference's inputs at 17 points evenly along the stretch of `len` from `o` along `d`
+/// (at time 0.5), each with its distance along the stretch.
+fn stretch(o: [f64; 4], d: [f64; 4], len: f64) -> impl Iterator<Item = (f64, [f64; 9])> {
+    (0..=16).map(move |k| {
+        let s = len * k as f64 / 16.0;
+        (
+            s,
+            vars(std::array::from_fn(|a| o[a] + d[a] * s), [0.0; 4], 0.5),
+        )
+    })
+}
+
 /// Bounds along a stretch of a ray (`Intervals::along`, what escape proofs and crawling rays'
 /// leaps rest on) hold every value the reference takes on it, for the examples, the test
 /// scenes and generated ones, over stretches from none to the rest of the ray; over no
@@ -297,13 +309,8 @@ fn bounds_along_a_stretch_contain_every_value_on_it() {
             let d = random_unit(&mut rng);
             let len = [0.0, 1e-3, 0.1, 1.0, 10.0][rng.random_range(0..5)] * scale;
             let bounds = Intervals::along(&mut along, &ir.graph, o, d, len);
-            for k in 0..=16 {
-                let s = len * k as f64 / 16.0;
-                reference.run(&vars(
-                    std::array::from_fn(|a| o[a] + d[a] * s),
-                    [0.0; 4],
-                    0.5,
-                ));
+            for (s, at) in stretch(o, d, len) {
+                reference.run(&at);
                 for root in &roots {
                     let (b, x) = (bounds.get(*root), reference.value(*root));
                     let slack = 1e-9 * (scale + x.abs());
@@ -2516,13 +2523,8 @@ fn bounds_follow_nan_through_the_operations_that_drop_it() {
             let (o, d) = (random_point(&mut rng, 2.0), random_unit(&mut rng));
             let len = [0.0, 0.1, 1.0, 4.0][rng.random_range(0..4)];
             let bounds = Intervals::along(&mut along, g, o, d, len);
-            for k in 0..=16 {
-                let s = len * k as f64 / 16.0;
-                reference.run(&vars(
-                    std::array::from_fn(|a| o[a] + d[a] * s),
-                    [0.0; 4],
-                    0.5,
-                ));
+            for (s, at) in stretch(o, d, len) {
+                reference.run(&at);
                 check(
                     bounds,
                     &reference,

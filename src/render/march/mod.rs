@@ -607,8 +607,8 @@ impl Marcher {
                             {
                                 let first = escape.distance(r.o + r.d * t, false, &mut self.proofs);
                                 // Short of the surface in `f64` (the tape's constants far
-                                // larger than the point, their rounding beyond the cell's
-                                // bound of it): step on by that distance.
+                                // larger than the point, and their `f32` rounding with
+                                // them): step on by that distance, as `approach` does.
                                 match first.0 > st.tol {
                                     true => Step::Advance(t - st.t + first.0),
                                     false => settle(
