@@ -96,6 +96,26 @@ impl Truth<'_> {
         None
     }
 
+    /// Whether the ray goes more than `tol` inside a solid between `from` and `to` (stepping
+    /// on the distance's size, at least `tol / 8`). A ray that grazes a plane at a slope of
+    /// 1e-4 is within a thousandth of the epsilon of it for a hundredth of a unit before its
+    /// root: a hit at the root is past where the reference first came that close, yet never
+    /// inside.
+    fn enters(&mut self, root: Id, r: &Ray, from: f64, to: f64, tol: f64) -> bool {
+        let mut t = from;
+        for _ in 0..100_000 {
+            if t >= to {
+                return false;
+            }
+            let d = self.at(root, r.o + r.d * t);
+            if d < -tol || d.is_nan() {
+                return true;
+            }
+            t += d.abs().max(tol / 8.0);
+        }
+        true
+    }
+
     /// The outward normal at `p` of the nearest object, by central differences.
     fn normal(&mut self, p: DVec4, h: f64) -> DVec4 {
         let root = self.ir.distance;
@@ -196,6 +216,7 @@ fn check(
                     fault(format!("hit names object {object}, {own:.3e} away"));
                 } else if let Ok(Some(first)) = first
                     && t > first + 2.0 * tol
+                    && (r.interior || truth.enters(root, r, first, t, tol))
                 {
                     fault(format!("hit at t = {t:.6e}, past a surface at {first:.6e}"));
                 } else if whole
@@ -215,10 +236,15 @@ fn check(
                 // Exact pieces meet the true surface, which the reference's trace stops within
                 // a thousandth of the epsilon of: a ray may pass a surface it only grazes
                 // (never inside it by more than that), but none it enters, nor any behind.
+                // Inside objects the distance is unsigned, so a graze cannot be told from a
+                // crossing, except at the ray's start: a surface there is one the ray leaves
+                // (it starts four epsilons past the last one it crossed; a shell thinner than
+                // that puts it on the next), which it may meet at 0 or pass.
                 let mut next = first;
                 while let Ok(Some(t)) = next {
                     let tol = eps * 1e-3;
-                    match truth.graze(root, r, t, tol).filter(|_| !r.interior) {
+                    let leaves = !r.interior || t == 0.0;
+                    match truth.graze(root, r, t, tol).filter(|_| leaves) {
                         Some(past) => next = truth.first_from(root, r, past, tol, far),
                         None => {
                             fault(format!("missed a surface at t = {t:.6e}"));

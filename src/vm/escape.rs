@@ -8,7 +8,7 @@ use crate::ir::eval;
 use crate::ir::exact::{Cover, Form, Pieces, Reach, cover, pieces};
 use crate::ir::interval::{Along, I, Intervals};
 use crate::ir::{Graph, Id, Node, Var};
-use crate::vm::cells::FEW_PIECES;
+use crate::vm::cells::{FEW_PIECES, epsilon_at};
 use glam::DVec4;
 
 /// The box `lo..hi` holds every bounded object (by its ball, or a box `proven_box` found), and
@@ -38,6 +38,9 @@ pub struct Escape {
     /// objects can be entered: the pieces rays outside objects and inside them meet
     /// (`Escape::pieces`); none for the plain marcher, which takes no exact shortcut.
     pieces: Option<(Pieces, Option<Pieces>)>,
+    /// How large the values of the scene's tapes are apart from the point's own size
+    /// (`magnitude`), which their `f32` rounding grows with as with the coordinates.
+    magnitude: f64,
 }
 
 /// The exact unbounded objects (`Escape::ahead`): every form with its object's index in the
@@ -118,6 +121,7 @@ impl Escape {
         let (whole, at) = g.compact(&roots);
         let at = |(d, n): (Id, Id)| (at[d.0 as usize], at[n.0 as usize]);
         Escape {
+            magnitude: magnitude(&whole, t),
             lo: bounded.0,
             hi: bounded.1,
             graph,
@@ -181,6 +185,14 @@ impl Escape {
             into,
             out,
         }
+    }
+
+    /// The distance below which the whole scene tape's `f32` cannot tell a point at `p` from
+    /// a surface (`epsilon_at`), grown with the tape's own values too: an object moved from
+    /// 1e4 to near the origin computes `p - c` of 1e4 there, and rounds by 5e-4, five
+    /// epsilons. Where it exceeds the epsilon, hits settle in `f64` (`approach`).
+    pub fn epsilon_at(&self, p: DVec4, epsilon: f64) -> f64 {
+        epsilon_at(p, epsilon).max(epsilon_at(DVec4::splat(self.magnitude), epsilon))
     }
 
     /// The scene's (for a ray inside objects, the interior, unsigned) distance at `p` in
@@ -504,6 +516,27 @@ fn span(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<(f64, f64)> {
         t1 = t1.min(u.max(v));
     }
     (t0 <= t1).then_some((t0, t1))
+}
+
+/// The largest value `g` computes at the origin at time `t` (its nodes' values, and the
+/// offsets, half-extents and radii that fused nodes hold, whose intermediate values they hide):
+/// at a point `p`, its values are about as large as that or as `p`. Constants alone are not
+/// counted (a `min` with 1e30 computes nothing that large), nor values that are not finite.
+fn magnitude(g: &Graph, t: f64) -> f64 {
+    let mut vals = vec![];
+    eval::walk(g, None, &eval::vars([0.0; 4], [0.0; 4], t), &mut vals);
+    let finite = |x: f64| if x.is_finite() { x.abs() } else { 0.0 };
+    (0..g.len())
+        .map(|i| {
+            let held = match g.get(Id(i as u32)) {
+                Node::Const(_) => return 0.0,
+                Node::Length(_, r) => r.iter().map(|k| finite(k.get())).fold(0.0, f64::max),
+                Node::BoxDist(_, r) => r.iter().map(|k| finite(k.get())).fold(0.0, f64::max),
+                _ => 0.0,
+            };
+            vals[i].iter().map(|&x| finite(x)).fold(held, f64::max)
+        })
+        .fold(0.0, f64::max)
 }
 
 #[cfg(test)]

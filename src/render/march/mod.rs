@@ -807,9 +807,10 @@ fn settle(
         t,
         object: if near >= 0.0 { near as usize } else { object },
     };
-    // A ray that starts inside has no surface behind it to settle back onto.
+    // A ray that starts inside has no surface behind it to settle back onto. The nearest
+    // object is `f64`'s: two objects within the tape's rounding of each other may swap there.
     if d.is_nan() || d >= -tol || t <= 0.0 {
-        return Step::Hit { t, object };
+        return hit(t, near);
     }
     // The last points inside and outside (beyond `tol`), and the distance at the former.
     let (mut inside, mut d_inside, mut outside) = (t, d, f64::NEG_INFINITY);

@@ -11,7 +11,6 @@
 use super::{
     Field, Hit, Limits, Marcher, Ray, State, Step, approach, careful, crawl, finish, retry, unrelax,
 };
-use crate::vm::cells::epsilon_at;
 use crate::vm::escape::{Ahead, Proofs};
 
 impl Marcher {
@@ -79,7 +78,7 @@ impl Marcher {
                         hits[k] = Hit::OutOfSteps;
                         continue;
                     }
-                    let tol = epsilon_at(r.o + r.d * st.t, limits.epsilon);
+                    let tol = field.escape.epsilon_at(r.o + r.d * st.t, limits.epsilon);
                     let step = if let Some(back) = unrelax(st, d) {
                         back
                     } else if interior {
