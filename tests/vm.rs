@@ -934,6 +934,35 @@ fn frames_specialised_on_t_agree() {
     }
 }
 
+/// A frame of a moving scene compiles to tapes as short as the same scene with its motion
+/// written as constants: with `t` folded in, a turn by `a * t` (four products and two sums)
+/// and a move by `v * t` (a difference beside a `length`) merge into the affine rows and
+/// offsets that constant ones lower to. 300 generated scenes set moving, at a later frame;
+/// before the optimiser merged such chains, 174 of them had longer tapes.
+#[test]
+fn moving_frames_compile_to_the_still_ones_forms() {
+    for seed in 1..=300u64 {
+        let g = hyperslice::generate::generate_moving(seed);
+        let t = (seed % 4 + 1) as f64 / 4.0;
+        let still = g.source.replace(" * t)", &format!(" * {t:?})"));
+        assert!(!still.contains("* t"), "{still}");
+        let lengths = |source: &str| {
+            let scene = compile_text(source);
+            let program = hyperslice::compile::Compiled::new(&scene).program(Some(t));
+            program
+                .tapes()
+                .map(|tape| tape.code.len())
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(
+            lengths(&g.source),
+            lengths(&still),
+            "seed {seed}:\n{}",
+            g.source
+        );
+    }
+}
+
 #[test]
 fn tapes_hold_only_what_their_roots_need() {
     // A tape keeps only what its roots need: an object's distance tape has no material ops.

@@ -95,6 +95,29 @@ pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
                 }
                 Bin::Max if ca == Some(f64::NEG_INFINITY) => return b,
                 Bin::Max if cb == Some(f64::NEG_INFINITY) => return a,
+                // Chains of sums and scalings of affine maps merge into one row, as the rows
+                // of constant turns and moves do when they are lowered: with `t` folded in, a
+                // turn by `a * t` is four products and two sums of the coordinates.
+                Bin::Mul
+                    if let Some((x, kx)) = ca.map(|k| (b, k)).or(cb.map(|k| (a, k)))
+                        && kx != 0.0
+                        && kx.is_finite()
+                        && offset(g, x) =>
+                {
+                    return affine(g, [x; 4], [kx, 0.0, 0.0, 0.0, 0.0]);
+                }
+                Bin::Add | Bin::Sub
+                    if ca.is_none()
+                        && cb.is_none()
+                        && (linear(g, a) || linear(g, b))
+                        && [a, b]
+                            .iter()
+                            .all(|&x| linear(g, x) || matches!(g.get(x), Node::Var(_)))
+                        && atoms(g, &[a, b]) <= 4 =>
+                {
+                    let sign = if op == Bin::Add { 1.0 } else { -1.0 };
+                    return affine(g, [a, b, a, a], [1.0, sign, 0.0, 0.0, 0.0]);
+                }
                 _ => {}
             }
         }
@@ -160,14 +183,50 @@ fn absorb_offsets(g: &Graph, v: [Id; 4], off: [f64; 4]) -> ([Id; 4], [f64; 4]) {
     let mut v = v;
     let mut off = off;
     for i in 0..4 {
-        if let Node::Bin(Bin::Add, x, c) = g.get(v[i])
-            && let Some(c) = g.constant(c)
-        {
+        let (x, c) = match g.get(v[i]) {
+            Node::Bin(Bin::Add, x, c) => (x, g.constant(c)),
+            Node::Bin(Bin::Sub, x, c) => (x, g.constant(c).map(|c| -c)),
+            _ => continue,
+        };
+        if let Some(c) = c {
             v[i] = x;
             off[i] += c;
         }
     }
     (v, off)
+}
+
+/// Whether `id` is an affine map of one or more nodes that a row reading it takes in
+/// (`expand` splits it into them).
+fn linear(g: &Graph, id: Id) -> bool {
+    let c = |x: Id| g.constant(x).is_some();
+    match g.get(id) {
+        Node::Affine(..) | Node::Un(Un::Neg, _) => true,
+        Node::Bin(Bin::Add | Bin::Sub, _, b) => c(b),
+        Node::Bin(Bin::Mul, a, b) => c(a) || c(b),
+        _ => false,
+    }
+}
+
+/// Whether `id` is a row or an offset, which a constant factor scales into one row.
+fn offset(g: &Graph, id: Id) -> bool {
+    match g.get(id) {
+        Node::Affine(..) => true,
+        Node::Bin(Bin::Add | Bin::Sub, _, b) => g.constant(b).is_some(),
+        _ => false,
+    }
+}
+
+/// How many distinct atoms (`expand`) the nodes `ids` read together.
+fn atoms(g: &Graph, ids: &[Id]) -> usize {
+    let mut all: Vec<Id> = ids
+        .iter()
+        .flat_map(|&id| expand(g, id).0)
+        .map(|t| t.0)
+        .collect();
+    all.sort();
+    all.dedup();
+    all.len()
 }
 
 /// A node as a linear combination of "atoms" (nodes that are not affine in their operands)
@@ -183,7 +242,9 @@ fn expand(g: &Graph, id: Id) -> (Vec<(Id, f64)>, f64) {
             (terms, r[4].get())
         }
         Node::Bin(Bin::Add, a, b) if c(b).is_some() => (vec![(a, 1.0)], c(b).unwrap_or(0.0)),
+        Node::Bin(Bin::Sub, a, b) if c(b).is_some() => (vec![(a, 1.0)], -c(b).unwrap_or(0.0)),
         Node::Bin(Bin::Mul, a, b) if c(b).is_some() => (vec![(a, c(b).unwrap_or(1.0))], 0.0),
+        Node::Bin(Bin::Mul, a, b) if c(a).is_some() => (vec![(b, c(a).unwrap_or(1.0))], 0.0),
         Node::Un(Un::Neg, a) => (vec![(a, -1.0)], 0.0),
         Node::Const(k) => (vec![], k.get()),
         _ => (vec![(id, 1.0)], 0.0),
