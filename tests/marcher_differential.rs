@@ -216,7 +216,9 @@ fn check(
                     fault(format!("hit names object {object}, {own:.3e} away"));
                 } else if let Ok(Some(first)) = first
                     && t > first + 2.0 * tol
-                    && (r.interior || truth.enters(root, r, first, t, tol))
+                    // (A quarter of the hit's tolerance: one epsilon on the whole tape, so
+                    // only a solid thinner than two epsilons can be crossed unseen.)
+                    && (r.interior || truth.enters(root, r, first, t, tol / 4.0))
                 {
                     fault(format!("hit at t = {t:.6e}, past a surface at {first:.6e}"));
                 } else if whole

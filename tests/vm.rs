@@ -963,6 +963,41 @@ fn moving_frames_compile_to_the_still_ones_forms() {
     }
 }
 
+/// The optimiser's merges keep what the kernel computes where a custom field is infinite or
+/// NaN (a reviewer's cases): a row over such a node would multiply it by 0 in its unused slots
+/// (`inf` becomes NaN, which a `max` then drops) or drop terms that cancel (and their NaN).
+/// The optimised tape gives the plain IR's value, infinite or NaN alike.
+#[test]
+fn merged_rows_keep_infinities_and_nans() {
+    let fields: [(&str, [f64; 4]); 4] = [
+        (
+            "max(length(p) - 1, (1 / max(p.x, 0) - 4) * 0.5)",
+            [-0.5, 0.0, 0.0, 0.0],
+        ),
+        ("p.x + 0 * sqrt(p.y)", [0.5, -1.0, 0.0, 0.0]),
+        (
+            "(2 * p.x + 2 * sqrt(p.y)) - 2 * sqrt(p.y)",
+            [0.5, -1.0, 0.0, 0.0],
+        ),
+        (
+            "max(length(p) - 1, (max(p.x, inf) - 1) * 2)",
+            [0.0, 0.0, 0.0, 0.0],
+        ),
+    ];
+    for (field, p) in fields {
+        let scene = compile_text(&format!("object s {{ shape = sdf |p| {field} }}"));
+        let compiled = hyperslice::compile::Compiled::new(&scene);
+        let mut reference = Reference::new(&compiled.ir.graph, &[compiled.ir.distance]);
+        reference.run(&vars(p, [0.0; 4], 0.0));
+        let want = reference.value(compiled.ir.distance);
+        let program = compiled.program(Some(0.0));
+        let mut regs = Regs::<f32, 1>::new(&program.scene);
+        let got = vm::eval_point(&program.scene, &mut regs, to32(p), [0.0; 4], 0.0)[0] as f64;
+        let same = got == want || got.is_nan() && want.is_nan();
+        assert!(same, "{field} at {p:?}: {got} against {want}");
+    }
+}
+
 #[test]
 fn tapes_hold_only_what_their_roots_need() {
     // A tape keeps only what its roots need: an object's distance tape has no material ops.

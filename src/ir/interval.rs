@@ -766,11 +766,15 @@ impl Intervals {
             Node::Affine(v, r) => {
                 let r = row(&r);
                 // A slot of coefficient 0 (a row of fewer than four inputs repeats its first)
-                // adds 0, or NaN where its input is NaN: not the whole line that `0 * x` over
-                // an unbounded `x` would give.
-                return (0..4).fold(I::point(r[4]), |acc, i| match r[i] == 0.0 {
-                    true => acc.or_nan(g(v[i]).nan),
-                    false => acc.add(g(v[i]).mul(I::point(r[i]))),
+                // adds 0, or NaN where its input is NaN or an infinity itself (a constant one
+                // folded in): not the whole line that `0 * x` over an unbounded `x` gives.
+                return (0..4).fold(I::point(r[4]), |acc, i| {
+                    let x = g(v[i]);
+                    match r[i] == 0.0 {
+                        true if x.lo == x.hi && x.lo.is_infinite() => I::UNDEFINED,
+                        true => acc.or_nan(x.nan),
+                        false => acc.add(x.mul(I::point(r[i]))),
+                    }
                 });
             }
             // A NaN face makes the distance NaN (the kernel's `max(q, 0)` keeps it), which the

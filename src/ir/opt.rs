@@ -98,11 +98,15 @@ pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
                 // Chains of sums and scalings of affine maps merge into one row, as the rows
                 // of constant turns and moves do when they are lowered: with `t` folded in, a
                 // turn by `a * t` is four products and two sums of the coordinates.
+                // Only over the coordinates, which are finite: a row's kernel multiplies its
+                // unused slots by 0, which makes an infinite atom NaN, and terms that cancel
+                // drop out of it, with their NaN (`1 / max(p.x, 0)` in a custom field).
                 Bin::Mul
                     if let Some((x, kx)) = ca.map(|k| (b, k)).or(cb.map(|k| (a, k)))
                         && kx != 0.0
                         && kx.is_finite()
-                        && offset(g, x) =>
+                        && offset(g, x)
+                        && of_coordinates(g, &[x]) =>
                 {
                     return affine(g, [x; 4], [kx, 0.0, 0.0, 0.0, 0.0]);
                 }
@@ -110,10 +114,7 @@ pub(crate) fn simplify(g: &mut Graph, n: Node, t: Option<f64>) -> Id {
                     if ca.is_none()
                         && cb.is_none()
                         && (linear(g, a) || linear(g, b))
-                        && [a, b]
-                            .iter()
-                            .all(|&x| linear(g, x) || matches!(g.get(x), Node::Var(_)))
-                        && atoms(g, &[a, b]) <= 4 =>
+                        && of_coordinates(g, &[a, b]) =>
                 {
                     let sign = if op == Bin::Add { 1.0 } else { -1.0 };
                     return affine(g, [a, b, a, a], [1.0, sign, 0.0, 0.0, 0.0]);
@@ -217,16 +218,15 @@ fn offset(g: &Graph, id: Id) -> bool {
     }
 }
 
-/// How many distinct atoms (`expand`) the nodes `ids` read together.
-fn atoms(g: &Graph, ids: &[Id]) -> usize {
-    let mut all: Vec<Id> = ids
-        .iter()
-        .flat_map(|&id| expand(g, id).0)
-        .map(|t| t.0)
-        .collect();
-    all.sort();
-    all.dedup();
-    all.len()
+/// Whether the nodes `ids` are affine in the point's coordinates alone: `expand`'s atoms are
+/// coordinates or rows of them, all finite.
+fn of_coordinates(g: &Graph, ids: &[Id]) -> bool {
+    let coordinate = |id: Id| matches!(g.get(id), Node::Var(v) if v.index() < 4);
+    let finite = |id: Id| match g.get(id) {
+        Node::Affine(v, _) => v.iter().all(|&x| coordinate(x)),
+        _ => coordinate(id),
+    };
+    (ids.iter()).all(|&id| expand(g, id).0.iter().all(|&(atom, _)| finite(atom)))
 }
 
 /// A node as a linear combination of "atoms" (nodes that are not affine in their operands)

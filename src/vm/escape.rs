@@ -7,7 +7,7 @@
 use crate::ir::eval;
 use crate::ir::exact::{Cover, Form, Pieces, Reach, cover, pieces};
 use crate::ir::interval::{Along, I, Intervals};
-use crate::ir::{Graph, Id, Node, Var};
+use crate::ir::{Bin, Graph, Id, K, Node, Var};
 use crate::vm::cells::{FEW_PIECES, epsilon_at};
 use glam::DVec4;
 
@@ -38,8 +38,8 @@ pub struct Escape {
     /// objects can be entered: the pieces rays outside objects and inside them meet
     /// (`Escape::pieces`); none for the plain marcher, which takes no exact shortcut.
     pieces: Option<(Pieces, Option<Pieces>)>,
-    /// How large the values of the scene's tapes are apart from the point's own size
-    /// (`magnitude`), which their `f32` rounding grows with as with the coordinates.
+    /// How large the constants the scene's tapes add are (`magnitude`): their `f32` rounding
+    /// grows with them as with the coordinates.
     magnitude: f64,
 }
 
@@ -121,7 +121,7 @@ impl Escape {
         let (whole, at) = g.compact(&roots);
         let at = |(d, n): (Id, Id)| (at[d.0 as usize], at[n.0 as usize]);
         Escape {
-            magnitude: magnitude(&whole, t),
+            magnitude: magnitude(&whole),
             lo: bounded.0,
             hi: bounded.1,
             graph,
@@ -188,7 +188,7 @@ impl Escape {
     }
 
     /// The distance below which the whole scene tape's `f32` cannot tell a point at `p` from
-    /// a surface (`epsilon_at`), grown with the tape's own values too: an object moved from
+    /// a surface (`epsilon_at`), grown with the tape's own constants too: an object moved from
     /// 1e4 to near the origin computes `p - c` of 1e4 there, and rounds by 5e-4, five
     /// epsilons. Where it exceeds the epsilon, hits settle in `f64` (`approach`).
     pub fn epsilon_at(&self, p: DVec4, epsilon: f64) -> f64 {
@@ -518,23 +518,25 @@ fn span(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<(f64, f64)> {
     (t0 <= t1).then_some((t0, t1))
 }
 
-/// The largest value `g` computes at the origin at time `t` (its nodes' values, and the
-/// offsets, half-extents and radii that fused nodes hold, whose intermediate values they hide):
-/// at a point `p`, its values are about as large as that or as `p`. Constants alone are not
-/// counted (a `min` with 1e30 computes nothing that large), nor values that are not finite.
-fn magnitude(g: &Graph, t: f64) -> f64 {
-    let mut vals = vec![];
-    eval::walk(g, None, &eval::vars([0.0; 4], [0.0; 4], t), &mut vals);
+/// How large the constants that `g` adds to the coordinates or to its values are (moves,
+/// offsets and half-extents in fused nodes, an affine row's offset, a constant added or
+/// subtracted): near the origin its values are about that large, and round with it. Not
+/// factors, nor the operands of a `min` or `max` (a cap of 1e30 adds nothing), nor values a
+/// custom field computes (`1 / (|x| + 1e-30)` is 1e30 at the origin, but a `min` may cap
+/// it); not infinities.
+fn magnitude(g: &Graph) -> f64 {
     let finite = |x: f64| if x.is_finite() { x.abs() } else { 0.0 };
+    let most = |ks: &[K]| ks.iter().map(|k| finite(k.get())).fold(0.0, f64::max);
     (0..g.len())
-        .map(|i| {
-            let held = match g.get(Id(i as u32)) {
-                Node::Const(_) => return 0.0,
-                Node::Length(_, r) => r.iter().map(|k| finite(k.get())).fold(0.0, f64::max),
-                Node::BoxDist(_, r) => r.iter().map(|k| finite(k.get())).fold(0.0, f64::max),
-                _ => 0.0,
-            };
-            vals[i].iter().map(|&x| finite(x)).fold(held, f64::max)
+        .map(|i| match g.get(Id(i as u32)) {
+            Node::Length(_, r) => most(&r),
+            Node::BoxDist(_, r) => most(&r),
+            Node::Affine(_, r) => finite(r[4].get()),
+            Node::Bin(Bin::Add | Bin::Sub, a, b) => {
+                let c = |x: Id| g.constant(x).map_or(0.0, finite);
+                c(a).max(c(b))
+            }
+            _ => 0.0,
         })
         .fold(0.0, f64::max)
 }

@@ -783,6 +783,16 @@ fn careful(
     crawl(escape, r, st, d, proofs).unwrap_or(Step::Advance(d))
 }
 
+/// A hit at `t` on the object `f64` finds nearest there (`near`, from `Escape::distance`),
+/// where it finds one, else on `object`, the one the `f32` tape named: two objects within
+/// the tape's rounding of each other may swap.
+fn hit_nearest(t: f64, near: f64, object: usize) -> Step {
+    Step::Hit {
+        t,
+        object: if near >= 0.0 { near as usize } else { object },
+    }
+}
+
 /// Where a ray outside objects that its tape ended at `t` (on `object`) meets the surface,
 /// where the tape's `f32` rounding may exceed the epsilon: a cell's bound of it
 /// (`Cell::scene_slack`) says so, or nothing bounds it (outside the cells' cube, in
@@ -803,12 +813,8 @@ fn settle(
     proofs: &mut Proofs,
 ) -> Step {
     let mut at = |t: f64| escape.distance(r.o + r.d * t, false, proofs);
-    let hit = |t: f64, near: f64| Step::Hit {
-        t,
-        object: if near >= 0.0 { near as usize } else { object },
-    };
-    // A ray that starts inside has no surface behind it to settle back onto. The nearest
-    // object is `f64`'s: two objects within the tape's rounding of each other may swap there.
+    let hit = |t: f64, near: f64| hit_nearest(t, near, object);
+    // A ray that starts inside has no surface behind it to settle back onto.
     if d.is_nan() || d >= -tol || t <= 0.0 {
         return hit(t, near);
     }
@@ -865,18 +871,23 @@ fn approach(
     proofs: &mut Proofs,
 ) -> Step {
     let t = st.t;
+    let hit = |t: f64, near: f64| hit_nearest(t, near, object);
     // A ray that starts well inside (a camera in an object) meets it where it starts, in
     // `f64` too: the tape's constants may be far larger than the point (an object moved
     // from far away to near the origin), and their rounding with them.
-    if t <= 0.0 && d < -tol && escape.distance(r.o + r.d * t, false, proofs).0 < -tol {
-        return Step::Hit { t, object };
+    if t <= 0.0 && d < -tol {
+        let (d, near) = escape.distance(r.o + r.d * t, false, proofs);
+        if d < -tol {
+            return hit(t, near);
+        }
     }
-    let mut at = t;
+    let (mut at, mut last) = (t, -1.0);
     for i in 0..SETTLE {
         let (d, near) = escape.distance(r.o + r.d * at, false, proofs);
         if d.is_nan() || d < eps {
             return settle(escape, r, (at, object), (d, near), eps, proofs);
         }
+        last = near;
         // A ray grazing the surface closer than `tol` crawls in steps of `d`: it leaps.
         if i == 0
             && let Some(s) = crawl(escape, r, st, d, proofs)
@@ -891,7 +902,7 @@ fn approach(
     // An epsilon below `f64`'s spacing at `t` leaves nothing to step: the ray is as close as
     // it can be.
     if at == t {
-        return Step::Hit { t, object };
+        return hit(t, last);
     }
     Step::Advance(at - t)
 }
