@@ -26,6 +26,7 @@ macro_rules! eprintln {
 
 mod bench_command;
 mod compile_command;
+mod cpu_check;
 mod fmt_command;
 mod lsp_command;
 mod render_command;
@@ -145,45 +146,7 @@ fn finish(result: hyperslice::error::Result<()>) -> ExitCode {
     }
 }
 
-/// The x86-64 features this binary was built to use (`.cargo/config.toml` asks for x86-64-v3)
-/// that the processor running it lacks. Their first instruction would end the process with
-/// SIGILL and no word of why, so `main` checks before anything else runs.
-fn missing_cpu_features() -> Vec<&'static str> {
-    #[allow(unused_mut)]
-    let mut missing = Vec::new();
-    #[cfg(target_arch = "x86_64")]
-    macro_rules! check {
-        ($($feature:tt),*) => {$(
-            if cfg!(target_feature = $feature) && !std::arch::is_x86_feature_detected!($feature) {
-                missing.push($feature);
-            }
-        )*};
-    }
-    #[cfg(target_arch = "x86_64")]
-    check!(
-        "avx", "avx2", "fma", "bmi1", "bmi2", "lzcnt", "movbe", "f16c"
-    );
-    missing
-}
-
-/// What a processor without `missing` is told, with how to build for it.
-fn unsupported_cpu(missing: &[&str]) -> Option<String> {
-    (!missing.is_empty()).then(|| {
-        format!(
-            "error: this build of hyperslice uses instructions this processor does not have \
-             ({})\n  = note: x86-64 builds use AVX2 and FMA by default (.cargo/config.toml)\n  \
-             = help: build for this processor: RUSTFLAGS=\"-C target-cpu=native\" cargo build \
-             --release",
-            missing.join(", ")
-        )
-    })
-}
-
 fn main() -> ExitCode {
-    if let Some(report) = unsupported_cpu(&missing_cpu_features()) {
-        eprintln!("{report}");
-        return ExitCode::from(2);
-    }
     let cli = Cli::parse();
     let color = match cli.color {
         ColorChoice::Auto => {
@@ -266,23 +229,5 @@ fn main() -> ExitCode {
                 ExitCode::FAILURE
             }
         },
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_processor_without_the_features_is_told_how_to_build_for_it() {
-        assert_eq!(unsupported_cpu(&[]), None);
-        let report = unsupported_cpu(&["avx2", "fma"]).unwrap();
-        assert!(report.contains("(avx2, fma)"), "{report}");
-        assert!(
-            report.contains("RUSTFLAGS=\"-C target-cpu=native\""),
-            "{report}"
-        );
-        // The machine that runs the tests runs what it built.
-        assert_eq!(missing_cpu_features(), Vec::<&str>::new());
     }
 }
