@@ -7,10 +7,7 @@
 //! do it: for a feature the build enables it answers yes without asking the processor.
 
 // A portable build has no check to run: the rest is there for the tests.
-#![cfg_attr(
-    not(all(target_arch = "x86_64", target_feature = "avx2")),
-    allow(dead_code)
-)]
+#![cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 
 /// What `cpuid` and `xgetbv` say of the processor, where x86-64-v3's features are.
 #[derive(Clone, Copy, Debug)]
@@ -26,27 +23,57 @@ pub struct Cpuid {
     pub xcr0: u64,
 }
 
-/// Whether the processor `c` describes runs x86-64-v3 code.
-pub fn runs_v3(c: Cpuid) -> bool {
-    const LEAF1: u32 = 1 << 12 | 1 << 22 | 1 << 27 | 1 << 28 | 1 << 29;
-    const LEAF7: u32 = 1 << 3 | 1 << 5 | 1 << 8;
-    const EXT: u32 = 1 << 5;
-    const XCR0: u64 = 1 << 1 | 1 << 2;
-    c.leaf1_ecx & LEAF1 == LEAF1
-        && c.leaf7_ebx & LEAF7 == LEAF7
-        && c.ext_ecx & EXT == EXT
-        && c.xcr0 & XCR0 == XCR0
+/// Bit `bit`, where `enabled`.
+const fn on(bit: u32, enabled: bool) -> u32 {
+    if enabled { 1 << bit } else { 0 }
+}
+
+/// The features of x86-64-v3 this build was compiled to use: all of them as `.cargo/config.toml`
+/// asks, and only some where `-C target-cpu=native` built for a processor with some (a
+/// virtual machine may hide MOVBE and show AVX2).
+pub const BUILT: Cpuid = {
+    let avx = cfg!(target_feature = "avx");
+    Cpuid {
+        leaf1_ecx: on(12, cfg!(target_feature = "fma"))
+            | on(22, cfg!(target_feature = "movbe"))
+            | on(27, avx)
+            | on(28, avx)
+            | on(29, cfg!(target_feature = "f16c")),
+        leaf7_ebx: on(3, cfg!(target_feature = "bmi1"))
+            | on(5, cfg!(target_feature = "avx2"))
+            | on(8, cfg!(target_feature = "bmi2")),
+        ext_ecx: on(5, cfg!(target_feature = "lzcnt")),
+        xcr0: if avx { 1 << 1 | 1 << 2 } else { 0 },
+    }
+};
+
+/// Whether the processor `c` describes has every feature of `required`.
+pub fn has(c: Cpuid, required: Cpuid) -> bool {
+    c.leaf1_ecx & required.leaf1_ecx == required.leaf1_ecx
+        && c.leaf7_ebx & required.leaf7_ebx == required.leaf7_ebx
+        && c.ext_ecx & required.ext_ecx == required.ext_ecx
+        && c.xcr0 & required.xcr0 == required.xcr0
 }
 
 /// What a processor without them is told, with how to build for it.
 pub const REPORT: &str = "error: this build of hyperslice uses instructions this processor \
-does not have (x86-64-v3: AVX2, FMA, BMI1, BMI2, LZCNT, MOVBE, F16C)\n  = note: x86-64 builds \
+does not have (of x86-64-v3's AVX2, FMA, BMI1, BMI2, LZCNT, MOVBE, F16C)\n  = note: x86-64 builds \
 use them by default (.cargo/config.toml)\n  = help: build for this processor: \
 RUSTFLAGS=\"-C target-cpu=native\" cargo build --release\n";
 
-#[cfg(all(target_arch = "x86_64", target_feature = "avx2"))]
+#[cfg(all(
+    target_arch = "x86_64",
+    any(
+        target_feature = "avx",
+        target_feature = "fma",
+        target_feature = "bmi1",
+        target_feature = "lzcnt",
+        target_feature = "movbe",
+        target_feature = "f16c"
+    )
+))]
 mod before_main {
-    use super::{Cpuid, REPORT, runs_v3};
+    use super::{BUILT, Cpuid, REPORT, has};
     use std::arch::x86_64::{__cpuid, __cpuid_count, __get_cpuid_max, _xgetbv};
 
     fn read() -> Cpuid {
@@ -76,7 +103,7 @@ mod before_main {
     }
 
     extern "C" fn check() {
-        if !runs_v3(read()) {
+        if !has(read(), BUILT) {
             let _ = std::io::Write::write_all(&mut std::io::stderr(), REPORT.as_bytes());
             std::process::exit(2);
         }
@@ -92,6 +119,14 @@ mod before_main {
 mod tests {
     use super::*;
 
+    /// x86-64-v3's features, where `cpuid` and `xgetbv` show them.
+    const V3: Cpuid = Cpuid {
+        leaf1_ecx: 1 << 12 | 1 << 22 | 1 << 27 | 1 << 28 | 1 << 29,
+        leaf7_ebx: 1 << 3 | 1 << 5 | 1 << 8,
+        ext_ecx: 1 << 5,
+        xcr0: 1 << 1 | 1 << 2,
+    };
+
     const ALL: Cpuid = Cpuid {
         leaf1_ecx: u32::MAX,
         leaf7_ebx: u32::MAX,
@@ -99,11 +134,11 @@ mod tests {
         xcr0: u64::MAX,
     };
 
-    /// Each feature's bit, taken away alone, makes the processor one that cannot run the
-    /// build; a processor with every bit runs it.
+    /// Each feature's bit, taken away alone, makes the processor one that cannot run a v3
+    /// build; a processor with every bit runs it. This build requires what it was built for.
     #[test]
     fn every_feature_of_x86_64_v3_is_required() {
-        assert!(runs_v3(ALL));
+        assert!(has(ALL, V3));
         let without = [
             Cpuid {
                 leaf1_ecx: !(1 << 12),
@@ -147,8 +182,10 @@ mod tests {
             },
         ];
         for c in without {
-            assert!(!runs_v3(c), "{c:?}");
+            assert!(!has(c, V3), "{c:?}");
         }
         assert!(REPORT.contains("RUSTFLAGS=\"-C target-cpu=native\""));
+        let v3 = cfg!(all(target_feature = "avx2", target_feature = "fma"));
+        assert!(!v3 || has(BUILT, V3) && has(V3, BUILT), "{BUILT:?}");
     }
 }

@@ -24,7 +24,7 @@ fn a_processor_without_x86_64_v3_is_told_how_to_build_for_it() {
     };
     let stderr = String::from_utf8_lossy(&old.stderr);
     assert_eq!(old.status.code(), Some(2), "{stderr}");
-    assert!(stderr.contains("x86-64-v3: AVX2, FMA"), "{stderr}");
+    assert!(stderr.contains("x86-64-v3's AVX2, FMA"), "{stderr}");
     assert!(
         stderr.contains("RUSTFLAGS=\"-C target-cpu=native\""),
         "{stderr}"
