@@ -139,48 +139,24 @@ mod tests {
     #[test]
     fn every_feature_of_x86_64_v3_is_required() {
         assert!(has(ALL, V3));
-        let without = [
-            Cpuid {
-                leaf1_ecx: !(1 << 12),
-                ..ALL
-            },
-            Cpuid {
-                leaf1_ecx: !(1 << 22),
-                ..ALL
-            },
-            Cpuid {
-                leaf1_ecx: !(1 << 27),
-                ..ALL
-            },
-            Cpuid {
-                leaf1_ecx: !(1 << 28),
-                ..ALL
-            },
-            Cpuid {
-                leaf1_ecx: !(1 << 29),
-                ..ALL
-            },
-            Cpuid {
-                leaf7_ebx: !(1 << 3),
-                ..ALL
-            },
-            Cpuid {
-                leaf7_ebx: !(1 << 5),
-                ..ALL
-            },
-            Cpuid {
-                leaf7_ebx: !(1 << 8),
-                ..ALL
-            },
-            Cpuid {
-                ext_ecx: !(1 << 5),
-                ..ALL
-            },
-            Cpuid {
-                xcr0: !(1 << 2),
-                ..ALL
-            },
-        ];
+        // Every bit of V3, cleared alone.
+        let bits = |mask: u64| (0..64).filter(move |b| mask >> b & 1 == 1);
+        let without = (bits(V3.leaf1_ecx.into()).map(|b| Cpuid {
+            leaf1_ecx: !(1 << b),
+            ..ALL
+        }))
+        .chain(bits(V3.leaf7_ebx.into()).map(|b| Cpuid {
+            leaf7_ebx: !(1 << b),
+            ..ALL
+        }))
+        .chain(bits(V3.ext_ecx.into()).map(|b| Cpuid {
+            ext_ecx: !(1 << b),
+            ..ALL
+        }))
+        .chain(bits(V3.xcr0).map(|b| Cpuid {
+            xcr0: !(1 << b),
+            ..ALL
+        }));
         for c in without {
             assert!(!has(c, V3), "{c:?}");
         }

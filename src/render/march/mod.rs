@@ -875,15 +875,20 @@ fn approach(
     // A ray that starts well inside (a camera in an object) meets it where it starts, in
     // `f64` too: the tape's constants may be far larger than the point (an object moved
     // from far away to near the origin), and their rounding with them.
+    let mut known = None;
     if t <= 0.0 && d < -tol {
         let (d, near) = escape.distance(r.o + r.d * t, false, proofs);
         if d < -tol {
             return hit(t, near);
         }
+        known = Some((d, near));
     }
     let (mut at, mut last) = (t, -1.0);
     for i in 0..SETTLE {
-        let (d, near) = escape.distance(r.o + r.d * at, false, proofs);
+        // (The first point's distance, where the check above took it already.)
+        let (d, near) = known
+            .take()
+            .unwrap_or_else(|| escape.distance(r.o + r.d * at, false, proofs));
         if d.is_nan() || d < eps {
             return settle(escape, r, (at, object), (d, near), eps, proofs);
         }
