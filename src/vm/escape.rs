@@ -90,8 +90,9 @@ impl Escape {
             false => vec![],
         };
         // Not with a tiled ball: meeting it from afar crosses its lattice cell by cell,
-        // which the cells' march does for less (the D4 packing).
-        let exact = (!covers.is_empty()
+        // which the cells' march does for less (the D4 packing). With no unbounded object at
+        // all, only the box is met: a ray that misses it ends at the sky unevaluated.
+        let exact = (covers_wanted
             && covers.len() <= 64
             && (covers.iter()).all(|c| {
                 c.as_ref()
@@ -667,6 +668,41 @@ mod tests {
         let holed = "subtract(halfspace([0, 1, 0, 0], offset: 0), hypersphere(0.5))";
         assert_eq!(
             of(holed, true).ahead(above, down, &mut proofs),
+            Ahead::Unknown
+        );
+    }
+
+    /// With no unbounded object, only the bounded objects' box is met: a ray that misses it
+    /// meets nothing (`first` infinite, the box spanned nowhere), a ray towards it spans it,
+    /// one inside it waits to leave; the plain marcher takes no such shortcut.
+    #[test]
+    fn rays_meet_only_the_box_where_every_object_is_bounded() {
+        let c = crate::Compilation::from_source("t.4ds", &scene(&["hypersphere(1)"]));
+        let scene = c.scene.expect("the test scene compiles");
+        let ir = crate::compile::Compiled::new(&scene).program(Some(0.0)).ir;
+        let boxed = (DVec4::splat(-1.0), DVec4::splat(1.0));
+        let camera = DVec4::new(0.0, 0.0, -6.0, 0.0);
+        let of = |covers| {
+            Escape::new(
+                &ir.graph,
+                ((boxed.0.min(camera), boxed.1.max(camera)), boxed),
+                &[],
+                ((ir.distance, ir.nearest), ir.interior),
+                (0.0, covers),
+            )
+        };
+        let (e, mut proofs) = (of(true), Proofs::default());
+        let away = e.ahead(camera, -DVec4::Z, &mut proofs);
+        assert!(matches!(away, Ahead::Meets { first, out: 0.0, .. } if first.is_infinite()));
+        let towards = e.ahead(camera, DVec4::Z, &mut proofs);
+        assert!(
+            matches!(towards, Ahead::Meets { first, into: 5.0, out: 7.0, .. }
+                if first.is_infinite()),
+            "{towards:?}"
+        );
+        assert_eq!(e.ahead(DVec4::ZERO, DVec4::Z, &mut proofs), Ahead::Inside);
+        assert_eq!(
+            of(false).ahead(camera, -DVec4::Z, &mut proofs),
             Ahead::Unknown
         );
     }
