@@ -521,25 +521,44 @@ fn span(p: DVec4, d: DVec4, lo: DVec4, hi: DVec4) -> Option<(f64, f64)> {
 
 /// How large the constants that `g` adds to the coordinates or to its values are (moves,
 /// offsets and half-extents in fused nodes, an affine row's offset, a constant added or
-/// subtracted): near the origin its values are about that large, and round with it. Not
-/// factors, nor the operands of a `min` or `max` (a cap of 1e30 adds nothing), nor values a
-/// custom field computes (`1 / (|x| + 1e-30)` is 1e30 at the origin, but a `min` may cap
-/// it); not infinities.
+/// subtracted), times the constant factors above them: near the origin its values are about
+/// that large, and round with it. `(|p / 1e4| - 1) * 1e4` (a unit sphere scaled by 1e4) rounds
+/// by 1e4 times `|p / 1e4| - 1`'s rounding. Its largest at any node, so no factor below 1
+/// hides a constant. Not the operands of a `min` or `max` (a cap of 1e30 adds nothing), nor
+/// values a custom field computes (`1 / (|x| + 1e-30)` is 1e30 at the origin, but a `min` may
+/// cap it); not infinities.
 fn magnitude(g: &Graph) -> f64 {
     let finite = |x: f64| if x.is_finite() { x.abs() } else { 0.0 };
     let most = |ks: &[K]| ks.iter().map(|k| finite(k.get())).fold(0.0, f64::max);
-    (0..g.len())
-        .map(|i| match g.get(Id(i as u32)) {
-            Node::Length(_, r) => most(&r),
-            Node::BoxDist(_, r) => most(&r),
-            Node::Affine(_, r) => finite(r[4].get()),
-            Node::Bin(Bin::Add | Bin::Sub, a, b) => {
-                let c = |x: Id| g.constant(x).map_or(0.0, finite);
-                c(a).max(c(b))
-            }
-            _ => 0.0,
-        })
-        .fold(0.0, f64::max)
+    // A finite constant factor scales its operand's magnitude; an infinite one leaves it.
+    let scaled = |k: f64, m: f64| if k.is_finite() { k.abs() * m } else { m };
+    let mut m = vec![0.0f64; g.len()];
+    for i in 0..g.len() {
+        let node = g.get(Id(i as u32));
+        let of = |x: Id| m[x.0 as usize];
+        let operands = node.children().into_iter().map(of).fold(0.0, f64::max);
+        let added = |x: Id| g.constant(x).map_or(0.0, finite);
+        m[i] = match node {
+            Node::Length(_, r) => operands.max(most(&r)),
+            Node::BoxDist(_, r) => operands.max(most(&r)),
+            Node::Affine(v, r) => (v.iter().zip(&r[..4]))
+                .filter(|(_, c)| c.get() != 0.0)
+                .map(|(&x, c)| scaled(c.get(), of(x)))
+                .fold(finite(r[4].get()), f64::max),
+            Node::Bin(Bin::Add | Bin::Sub, a, b) => operands.max(added(a)).max(added(b)),
+            Node::Bin(Bin::Mul, a, b) => match (g.constant(a), g.constant(b)) {
+                (Some(k), _) => scaled(k, of(b)),
+                (_, Some(k)) => scaled(k, of(a)),
+                _ => operands,
+            },
+            Node::Bin(Bin::Div, a, b) => match g.constant(b) {
+                Some(k) if k != 0.0 => scaled(1.0 / k, of(a)),
+                _ => operands,
+            },
+            _ => operands,
+        };
+    }
+    m.into_iter().fold(0.0, f64::max)
 }
 
 #[cfg(test)]
