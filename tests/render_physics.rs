@@ -858,9 +858,11 @@ fn a_tiny_epsilon_does_not_split_a_tiling_into_a_cell_per_step() {
 #[test]
 fn one_marching_step_ends_every_ray() {
     // Two spheres blended, which rays step towards (a sphere alone they meet exactly, in one
-    // go, whatever the step limit).
+    // go, whatever the step limit), seen closely enough that every ray enters their box (a
+    // ray that misses it sees the sky without a step).
     let src = "render { size = 6 x 4  spp = 2  max_steps = 1 }
                sky = rgb(1)
+               camera { from = [0, 0, -5, 0]  fov = 20deg }
                object ball { shape = union(hypersphere(1), hypersphere(0.5) |> translate([0, 0.8, 0, 0]), smooth: 0.2) material = diffuse() }";
     let r = render(src);
     assert_eq!(r.stats.out_of_steps, 48);

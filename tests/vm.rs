@@ -542,17 +542,27 @@ const SHAPES: &[(&str, &[[f64; 4]])] = &[
     ("sdf |p| length(p) - 1", &[[1.0, 0.0, 0.0, 0.0]]),
     ("hypersphere(0.5 + 0.5 * t)", &[]),
     ("hyperbox(1) |> rotate(xw, t * 90deg)", &[]),
+    // A blend that grows with `t` has no constant ball.
+    (
+        "union(hypersphere(0.5) |> translate([-1, 0, 0, 0]), hypersphere(0.5) |> translate([1, 0, 0, 0]), smooth: 2 + 2 * t)",
+        &[],
+    ),
 ];
 
 /// Shapes whose balls (`Shape::bounds`) come from more than their primitives' radii: turned
 /// about the origin off their centre (at a fixed angle and with `t`), mirrored off their
-/// centre, and tiled on a limited grid, alone and turned.
+/// centre, tiled on a limited grid, alone and turned, and polytopes rounded or peeled (whose
+/// distances grow their vertices faster than their faces), alone, scaled and blended.
 const BOUNDED: &[&str] = &[
     "hypersphere(0.5) |> translate([2, 1, 0, 0]) |> rotate(xy, 70deg) |> rotate(yw, -30deg)",
     "hyperbox(0.3) |> translate([0, 0, 1.5, 0.5]) |> rotate(zw, t * 180deg)",
     "hypersphere(0.4) |> translate([1, 0.5, 0, 0]) |> symmetry([1, 1, 0, 0])",
     "hypersphere(0.3) |> tile(grid([1, 0.8, 1.2, 0.9], limit: [2, 1, 2, 3]))",
     "round(hypersphere(0.2) |> tile(grid(0.7, limit: [1, 2, 0, 1])), 0.1) |> translate([3, 0, 0, 0]) |> rotate(xz, 40deg)",
+    "round(cell16(1), 0.5)",
+    "onion(cell5(1), 0.4) |> translate([0.5, 0, 0, 0])",
+    "round(cell24(1), 0.3) |> scale(2)",
+    "union(round(cell16(0.5), 0.2), hypersphere(0.3) |> translate([1, 0, 0, 0]), smooth: 0.5)",
 ];
 
 /// Every shape with a ball (`Shape::bounds`) lies in it: random points around the ball, just

@@ -218,28 +218,47 @@ impl Shape {
 
     /// A ball (centre, radius) containing the shape, when its parameters are constants.
     pub fn bounds(&self) -> Option<([f64; 4], f64)> {
+        self.grown(0.0)
+    }
+
+    /// A ball containing the points where the shape's distance is at most `grow` (what
+    /// `round` and `onion` make of it). Exact distances (spheres, boxes, extrusions) grow by
+    /// `grow`; a polytope's, the largest of its facet distances, grows it by `grow` times
+    /// its circumradius over its inradius (2 for the 16-cell: `round(cell16(1), 0.5)` reaches
+    /// 2, not 1.5).
+    fn grown(&self, grow: f64) -> Option<([f64; 4], f64)> {
         use ShapeKind as S;
         let o = [0.0; 4];
         Some(match &self.kind {
-            S::Hypersphere { radius } | S::Polytope { radius, .. } => (o, radius.constant()?),
+            S::Hypersphere { radius } => (o, radius.constant()? + grow),
+            S::Polytope { cells, radius } => {
+                let per_grow = match cells {
+                    Polytope::Cell16 => 2.0,
+                    Polytope::Cell24 => std::f64::consts::SQRT_2,
+                    Polytope::Cell5 => 4.0,
+                };
+                (o, radius.constant()? + per_grow * grow)
+            }
             S::Hyperbox { half, radius } => {
                 let h = half.constant()?;
-                (o, length(h) + radius.constant()?)
+                (o, length(h) + radius.constant()? + grow)
             }
-            S::Spherinder { radius, height } => (o, radius.constant()?.hypot(height.constant()?)),
+            S::Spherinder { radius, height } => {
+                (o, radius.constant()?.hypot(height.constant()?) + grow)
+            }
             S::Cubinder { radius, height } => (
                 o,
-                (radius.constant()?.powi(2) + 2.0 * height.constant()?.powi(2)).sqrt(),
+                (radius.constant()?.powi(2) + 2.0 * height.constant()?.powi(2)).sqrt() + grow,
             ),
             S::Duocylinder { radius1, radius2 } => {
-                (o, radius1.constant()?.hypot(radius2.constant()?))
+                (o, radius1.constant()?.hypot(radius2.constant()?) + grow)
             }
             S::Halfspace { .. } | S::Custom { .. } => return None,
             // Every copy lies in the ball about its lattice point `spacing * k`, `|k_i| <=
             // limit_i`: all of them within the corner copy's reach of the centre one.
             S::Tile { shape, lattice } => match lattice {
                 Lattice::Grid { spacing, limit } if limit.iter().all(|l| l.is_finite()) => {
-                    let (c, r) = shape.bounds()?;
+                    let (c, r) = shape.grown(grow)?;
                     (
                         c,
                         r + length(std::array::from_fn(|i| spacing[i] * limit[i])),
@@ -250,7 +269,7 @@ impl Shape {
             // The kept half and its mirror image: within the shape's ball about its centre
             // grown by how far the mirror moves that centre.
             S::Symmetry { shape, normal } => {
-                let (c, r) = shape.bounds()?;
+                let (c, r) = shape.grown(grow)?;
                 let n = normal.constant()?;
                 let nn: f64 = n.iter().map(|x| x * x).sum();
                 if nn == 0.0 {
@@ -259,36 +278,35 @@ impl Shape {
                 let off = (0..4).map(|i| c[i] * n[i]).sum::<f64>().abs() * 2.0 / nn.sqrt();
                 (c, r + off)
             }
+            // A smooth minimum is at most k / 4 below the minimum; a blend that changes with
+            // `t` has no constant bound.
             S::Union { shapes, smooth } => {
-                let bs: Vec<_> = shapes.iter().map(|c| c.bounds()).collect::<Option<_>>()?;
-                let k = smooth.constant().unwrap_or(0.0);
+                let g = grow + smooth.constant()?.max(0.0) / 4.0;
+                let bs: Vec<_> = shapes.iter().map(|c| c.grown(g)).collect::<Option<_>>()?;
                 let c = bs[0].0;
                 let r = bs
                     .iter()
                     .map(|(bc, br)| distance(c, *bc) + br)
                     .fold(0.0, f64::max);
-                (c, r + k)
+                (c, r)
             }
+            // A smooth maximum is at least the maximum: the shape lies in every part.
             S::Intersect { shapes, .. } => {
-                let bs: Vec<_> = shapes.iter().filter_map(|c| c.bounds()).collect();
+                let bs: Vec<_> = shapes.iter().filter_map(|c| c.grown(grow)).collect();
                 *bs.iter().min_by(|a, b| a.1.total_cmp(&b.1))?
             }
-            S::Subtract { shape, .. } => shape.bounds()?,
+            S::Subtract { shape, .. } => shape.grown(grow)?,
             S::Onion { shape, thickness } => {
-                let (c, r) = shape.bounds()?;
-                (c, r + thickness.constant()? / 2.0)
+                shape.grown(grow + thickness.constant()?.abs() / 2.0)?
             }
-            S::Round { shape, radius } => {
-                let (c, r) = shape.bounds()?;
-                (c, r + radius.constant()?)
-            }
+            S::Round { shape, radius } => shape.grown(grow + radius.constant()?)?,
             S::Translate { shape, offset } => {
-                let (c, r) = shape.bounds()?;
+                let (c, r) = shape.grown(grow)?;
                 let v = offset.constant()?;
                 (std::array::from_fn(|i| c[i] + v[i]), r)
             }
             S::Rotate { shape, rotation } => {
-                let (c, r) = shape.bounds()?;
+                let (c, r) = shape.grown(grow)?;
                 let angles: Option<Vec<(Plane, f64)>> = rotation
                     .iter()
                     .map(|(p, a)| Some((*p, a.constant()?)))
@@ -299,9 +317,13 @@ impl Shape {
                     None => (o, length(c) + r),
                 }
             }
+            // `k d(p / k)` is at most `grow` where `d(p / k)` is at most `grow / k`.
             S::Scale { shape, factor } => {
-                let (c, r) = shape.bounds()?;
                 let k = factor.constant()?;
+                if k <= 0.0 {
+                    return None;
+                }
+                let (c, r) = shape.grown(grow / k)?;
                 (c.map(|x| x * k), r * k)
             }
         })
