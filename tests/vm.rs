@@ -2145,7 +2145,9 @@ fn only_distances_become_exact_spheres() {
 /// 1024 spheres (cells cut each step to the few spheres nearby); on a blend of two spheres
 /// 1e6 from the origin, whose cells resolve the epsilon in `f32` where the whole tape's hits
 /// settle in `f64`; and with the camera inside glass, whose rays the probe marches on the
-/// interior tape as the render does. The probe stays small whatever the image's shape.
+/// interior tape as the render does; not around small objects in a shell of radius 1e6,
+/// whose cells split around every ray (`UNSHARED`: through them the frame took 16 times as
+/// long as plain). The probe stays small whatever the image's shape.
 /// A scene that is a few exact pieces (a turned slab, glass and a sphere thousands of
 /// epsilons across seen from 3e4 away, a sphere alone) is not probed: every ray meets the
 /// pieces once (`Escape::pieces`), on no cells. (Through the cells, the slab was met exactly
@@ -2194,6 +2196,21 @@ fn frames_march_through_cells_only_where_they_pay() {
                  offset: -9.97e3) material = glass(ior: 1.5) }\n\
                  object ball { shape = hypersphere(8.9e3) |> translate([7.47e3, 4.77e3, \
                  -4.73e3, 1.65e3]) material = diffuse(rgb(0.5)) }";
+    // Small objects inside a shell of radius 1e6: its cells split around every ray.
+    let shell = "render { size = 80 x 60  spp = 4  bounces = 3 }\n\
+                 camera { from = [0, 0.5, -4, 0.1] }\n\
+                 object dome { shape = onion(hypersphere(1), 0.001) |> scale(1000000) \
+                 material = diffuse(rgb(0.8)) }\n\
+                 object a { shape = spherinder(0.5, 0.5) |> rotate(xz, 30deg) \
+                 material = diffuse(rgb(0.5)) }\n\
+                 object b { shape = union(hypersphere(0.4) |> translate([1, 0, 0, 0]), \
+                 hypersphere(0.4) |> translate([1.5, 0.3, 0, 0]), smooth: 0.3) \
+                 material = diffuse(rgb(0.5)) }\n\
+                 object c { shape = duocylinder(0.3, 0.2) |> translate([-1.2, 0, 0.5, 0]) \
+                 material = glass(ior: 1.5) }\n\
+                 object l { shape = hypersphere(0.3) |> translate([0, 3, 0, 0]) \
+                 material = light(rgb(20)) }\n\
+                 object g { shape = halfspace(offset: -1) material = diffuse(rgb(0.6)) }";
     let alone = "render { size = 64 x 48 }\n\
                  camera { from = [0, 0, -5, 0] }\n\
                  object ball { shape = hypersphere(1) material = diffuse(rgb(0.5)) }";
@@ -2227,6 +2244,10 @@ fn frames_march_through_cells_only_where_they_pay() {
             Some((false, true)),
         ),
         (Compilation::from_source("split.4ds", split), None),
+        (
+            Compilation::from_source("shell.4ds", shell),
+            Some((false, false)),
+        ),
         (
             Compilation::from_path(Path::new("benches/scenes/turned_slab.4ds")),
             None,
