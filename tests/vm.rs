@@ -552,7 +552,8 @@ const SHAPES: &[(&str, &[[f64; 4]])] = &[
 /// Shapes whose balls (`Shape::bounds`) come from more than their primitives' radii: turned
 /// about the origin off their centre (at a fixed angle and with `t`), mirrored off their
 /// centre, tiled on a limited grid, alone and turned, and polytopes rounded or peeled (whose
-/// distances grow their vertices faster than their faces), alone, scaled and blended.
+/// distances grow their vertices faster than their faces), alone, scaled and blended, and
+/// blends of three and four parts (a chain of smooth minima reaches deeper than one).
 const BOUNDED: &[&str] = &[
     "hypersphere(0.5) |> translate([2, 1, 0, 0]) |> rotate(xy, 70deg) |> rotate(yw, -30deg)",
     "hyperbox(0.3) |> translate([0, 0, 1.5, 0.5]) |> rotate(zw, t * 180deg)",
@@ -563,6 +564,8 @@ const BOUNDED: &[&str] = &[
     "onion(cell5(1), 0.4) |> translate([0.5, 0, 0, 0])",
     "round(cell24(1), 0.3) |> scale(2)",
     "union(round(cell16(0.5), 0.2), hypersphere(0.3) |> translate([1, 0, 0, 0]), smooth: 0.5)",
+    "union(hypersphere(1), hypersphere(1.001), hypersphere(0.999), smooth: 1)",
+    "union(cell5(1), cell5(1.001), cell5(0.999), hypersphere(0.2), smooth: 0.8)",
 ];
 
 /// Every shape with a ball (`Shape::bounds`) lies in it: random points around the ball, just
