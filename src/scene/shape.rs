@@ -26,6 +26,20 @@ pub enum Polytope {
     Cell24,
 }
 
+impl Polytope {
+    /// Its circumradius grown with its distance, the largest of its facet distances: growing
+    /// that by `grow` scales the polytope by `1 + grow / inradius`, so the vertices move out
+    /// by `grow` times circumradius over inradius (4, 2 and the square root of 2).
+    fn circumradius(self, r: f64, grow: f64) -> f64 {
+        let per_grow = match self {
+            Polytope::Cell5 => 4.0,
+            Polytope::Cell16 => 2.0,
+            Polytope::Cell24 => std::f64::consts::SQRT_2,
+        };
+        r + per_grow * grow
+    }
+}
+
 /// What a shape node is: a primitive with its parameters, or an operation on child shapes.
 /// Sizes are in world units.
 #[derive(Clone, Debug, PartialEq)]
@@ -223,22 +237,14 @@ impl Shape {
 
     /// A ball containing the points where the shape's distance is at most `grow` (what
     /// `round` and `onion` make of it). Exact distances (spheres, boxes, extrusions) grow by
-    /// `grow`; a polytope's, the largest of its facet distances, grows it by `grow` times
-    /// its circumradius over its inradius (2 for the 16-cell: `round(cell16(1), 0.5)` reaches
+    /// `grow`; a polytope faster (`Polytope::circumradius`: `round(cell16(1), 0.5)` reaches
     /// 2, not 1.5).
     fn grown(&self, grow: f64) -> Option<([f64; 4], f64)> {
         use ShapeKind as S;
         let o = [0.0; 4];
         Some(match &self.kind {
             S::Hypersphere { radius } => (o, radius.constant()? + grow),
-            S::Polytope { cells, radius } => {
-                let per_grow = match cells {
-                    Polytope::Cell16 => 2.0,
-                    Polytope::Cell24 => std::f64::consts::SQRT_2,
-                    Polytope::Cell5 => 4.0,
-                };
-                (o, radius.constant()? + per_grow * grow)
-            }
+            S::Polytope { cells, radius } => (o, cells.circumradius(radius.constant()?, grow)),
             S::Hyperbox { half, radius } => {
                 let h = half.constant()?;
                 (o, length(h) + radius.constant()? + grow)
@@ -370,21 +376,19 @@ impl Shape {
                 let (r1, r2) = (radius1.constant()?, radius2.constant()?);
                 r1 * v[0].hypot(v[1]) + r2 * v[2].hypot(v[3]) + grow * len
             }
-            // The polytopes' distances are their largest facet distances, so growing one by g
-            // scales it by 1 + g / inradius.
             S::Polytope { cells, radius } => {
-                let r = radius.constant()?;
+                let r = cells.circumradius(radius.constant()?, grow);
                 match cells {
-                    // Vertices +-r e_i; inradius r / 2.
-                    Polytope::Cell16 => (r + 2.0 * grow) * a.iter().cloned().fold(0.0, f64::max),
-                    // Vertices r / sqrt(2) (+-1, +-1, 0, 0) permuted; inradius r / sqrt(2).
+                    // Vertices +-r e_i.
+                    Polytope::Cell16 => r * a.iter().cloned().fold(0.0, f64::max),
+                    // Vertices r / sqrt(2) (+-1, +-1, 0, 0) permuted.
                     Polytope::Cell24 => {
                         let mut s = a;
                         s.sort_by(|x, y| y.total_cmp(x));
-                        (r * std::f64::consts::FRAC_1_SQRT_2 + grow) * (s[0] + s[1])
+                        r * std::f64::consts::FRAC_1_SQRT_2 * (s[0] + s[1])
                     }
-                    // Within the circumscribed ball; inradius r / 4.
-                    Polytope::Cell5 => (r + 4.0 * grow) * len,
+                    // Within the circumscribed ball.
+                    Polytope::Cell5 => r * len,
                 }
             }
             S::Halfspace { .. } | S::Custom { .. } | S::Tile { .. } => return None,
